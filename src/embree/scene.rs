@@ -1,0 +1,456 @@
+//! Building an Embree scene from triangle meshes and spheres, and querying the committed,
+//! immutable result from any number of threads.
+
+use std::cell::Cell;
+use std::ptr;
+use std::sync::Mutex;
+
+use super::device::{Device, take_error};
+use super::user_sphere::{self, SphereSet};
+use super::{Error, sys};
+use crate::accel::Hit;
+use crate::geometry::Sphere;
+use crate::math::{Ray, Vec3};
+use crate::scene::mesh::triangles_problem;
+
+/// Per-query state handed to Embree as its query context. It begins with Embree's own context
+/// (`#[repr(C)]`, first field), so the callbacks can cast the context pointer Embree gives them
+/// back to this type and report a caught panic here.
+#[repr(C)]
+pub(crate) struct QueryContext {
+    #[cfg(embree3)]
+    raw: sys::RTCIntersectContext,
+    #[cfg(embree4)]
+    raw: sys::RTCRayQueryContext,
+    panic: Cell<Option<String>>,
+}
+
+impl QueryContext {
+    fn new(coherent: bool) -> Self {
+        #[cfg(embree3)]
+        let raw = sys::init_intersect_context(if coherent {
+            sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+        } else {
+            sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
+        });
+        #[cfg(embree4)]
+        let raw = {
+            let _ = coherent; // Embree 4 takes the flag in the arguments instead
+            sys::init_ray_query_context()
+        };
+        QueryContext { raw, panic: Cell::new(None) }
+    }
+
+    pub(crate) fn inst_id(&self, level: usize) -> u32 {
+        self.raw.instID[level]
+    }
+
+    #[cfg(embree_inst_prim_id)]
+    pub(crate) fn inst_prim_id(&self, level: usize) -> u32 {
+        self.raw.instPrimID[level]
+    }
+
+    pub(crate) fn record_panic(&self, message: String) {
+        let first = self.panic.take().unwrap_or(message);
+        self.panic.set(Some(first));
+    }
+
+    /// The query's outcome: a panic caught in a callback, or an error Embree reported.
+    fn finish(self, call: &'static str) -> Result<(), Error> {
+        if let Some(message) = self.panic.take() {
+            let _ = take_error(call); // the panic is the cause; drop any follow-on error
+            return Err(Error::CallbackPanic(message));
+        }
+        take_error(call)
+    }
+}
+
+/// How Embree should build the BVH.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuildOptions {
+    /// `RTC_BUILD_QUALITY_HIGH` (spatial splits: slower build, faster tracing) instead of
+    /// the default medium quality.
+    pub high_quality: bool,
+    /// `RTC_SCENE_FLAG_ROBUST`: avoid optimisations that reduce arithmetic accuracy.
+    pub robust: bool,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions { high_quality: false, robust: true }
+    }
+}
+
+/// Collects geometry for one Embree scene; [`SceneBuilder::commit`] builds the BVH.
+///
+/// Every input is validated before it reaches Embree: out-of-range indices would make Embree
+/// read out of bounds, and non-finite data would corrupt its BVH.
+pub struct SceneBuilder {
+    device: Device,
+    raw: sys::RTCScene,
+    sphere_sets: Vec<Box<SphereSet>>,
+    next_id: u32,
+    panic_in_callbacks: bool,
+}
+
+impl SceneBuilder {
+    pub fn new(device: &Device, options: BuildOptions) -> Result<Self, Error> {
+        // SAFETY: the device is live (the builder keeps a clone of it).
+        let raw = unsafe { sys::rtcNewScene(device.raw()) };
+        let builder = SceneBuilder {
+            device: device.clone(),
+            raw,
+            sphere_sets: Vec::new(),
+            next_id: 0,
+            panic_in_callbacks: false,
+        };
+        take_error("rtcNewScene")?;
+        if raw.is_null() {
+            return Err(Error::Api { call: "rtcNewScene", code: sys::RTC_ERROR_UNKNOWN, message: "no scene".into() });
+        }
+        let flags = if options.robust { sys::RTC_SCENE_FLAG_ROBUST } else { sys::RTC_SCENE_FLAG_NONE };
+        let quality = if options.high_quality { sys::RTC_BUILD_QUALITY_HIGH } else { sys::RTC_BUILD_QUALITY_MEDIUM };
+        // SAFETY: `raw` is a live, uncommitted scene; flags and quality are valid enum values.
+        unsafe {
+            sys::rtcSetSceneFlags(raw, flags);
+            sys::rtcSetSceneBuildQuality(raw, quality);
+        }
+        take_error("rtcSetSceneFlags")?;
+        Ok(builder)
+    }
+
+    /// The id the next geometry added will get.
+    pub fn next_geom_id(&self) -> u32 {
+        self.next_id
+    }
+
+    /// Adds a triangle mesh (`RTC_GEOMETRY_TYPE_TRIANGLE`, f32 vertices, u32 indices) and
+    /// returns its geometry id. `name` identifies it in errors. A mesh without triangles takes
+    /// an id but adds nothing.
+    pub fn add_triangle_mesh(&mut self, name: &str, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<u32, Error> {
+        if let Some(problem) = triangles_problem(positions, indices) {
+            return Err(Error::InvalidInput { object: format!("mesh '{name}'"), problem });
+        }
+        let id = self.next_id;
+        self.next_id += 1;
+        if indices.is_empty() {
+            return Ok(id);
+        }
+        // SAFETY: the device is live; the type is a valid geometry type.
+        let geom = unsafe { sys::rtcNewGeometry(self.device.raw(), sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        take_error("rtcNewGeometry")?;
+        let geometry = Geometry(geom);
+        const _: () = assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::size_of::<[u32; 3]>() == 12);
+        // SAFETY: `rtcSetNewGeometryBuffer` allocates a buffer of `len` items of 12 bytes
+        // (padded as Embree needs) that the geometry owns; we copy exactly `len` items into it.
+        // `Vec3` is `#[repr(C)]` of three f32, the layout of RTC_FORMAT_FLOAT3.
+        unsafe {
+            let vb = sys::rtcSetNewGeometryBuffer(
+                geometry.0,
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTC_FORMAT_FLOAT3,
+                12,
+                positions.len(),
+            );
+            take_error("rtcSetNewGeometryBuffer")?;
+            if vb.is_null() {
+                return Err(out_of_memory("vertex buffer"));
+            }
+            ptr::copy_nonoverlapping(positions.as_ptr() as *const u8, vb as *mut u8, 12 * positions.len());
+            let ib = sys::rtcSetNewGeometryBuffer(
+                geometry.0,
+                sys::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTC_FORMAT_UINT3,
+                12,
+                indices.len(),
+            );
+            take_error("rtcSetNewGeometryBuffer")?;
+            if ib.is_null() {
+                return Err(out_of_memory("index buffer"));
+            }
+            ptr::copy_nonoverlapping(indices.as_ptr() as *const u8, ib as *mut u8, 12 * indices.len());
+        }
+        self.attach(geometry, id)?;
+        Ok(id)
+    }
+
+    /// Adds spheres as one user geometry (primitive `i` is `spheres[i]`) and returns its id.
+    pub fn add_spheres(&mut self, name: &str, spheres: &[Sphere]) -> Result<u32, Error> {
+        if let Some((i, problem)) = spheres.iter().enumerate().find_map(|(i, s)| s.problem().map(|p| (i, p))) {
+            return Err(Error::InvalidInput { object: format!("sphere {i} of '{name}'"), problem });
+        }
+        let id = self.next_id;
+        self.next_id += 1;
+        if spheres.is_empty() {
+            return Ok(id);
+        }
+        let set = Box::new(SphereSet {
+            spheres: spheres.into(),
+            build_panic: Mutex::new(None),
+            panic_in_callbacks: self.panic_in_callbacks,
+        });
+        // SAFETY: the device is live.
+        let geom = unsafe { sys::rtcNewGeometry(self.device.raw(), sys::RTC_GEOMETRY_TYPE_USER) };
+        take_error("rtcNewGeometry")?;
+        let geometry = Geometry(geom);
+        // SAFETY: the user pointer is the boxed `SphereSet`, whose heap address stays fixed
+        // and which the scene keeps alive for as long as Embree may call back; the callbacks
+        // are `extern "C"` and never unwind.
+        unsafe {
+            sys::rtcSetGeometryUserPrimitiveCount(geometry.0, spheres.len() as u32);
+            sys::rtcSetGeometryUserData(geometry.0, &*set as *const SphereSet as *mut _);
+            sys::rtcSetGeometryBoundsFunction(geometry.0, Some(user_sphere::bounds), ptr::null_mut());
+            sys::rtcSetGeometryIntersectFunction(geometry.0, Some(user_sphere::intersect));
+            sys::rtcSetGeometryOccludedFunction(geometry.0, Some(user_sphere::occluded));
+        }
+        take_error("rtcSetGeometryUserData")?;
+        self.sphere_sets.push(set);
+        self.attach(geometry, id)?;
+        Ok(id)
+    }
+
+    /// Test hook: makes every sphere callback of sphere sets added after this call panic, to
+    /// show that panics come back as errors instead of unwinding into Embree.
+    #[doc(hidden)]
+    pub fn panic_in_sphere_callbacks_for_tests(&mut self) {
+        self.panic_in_callbacks = true;
+    }
+
+    fn attach(&mut self, geometry: Geometry, id: u32) -> Result<(), Error> {
+        // SAFETY: both handles are live; the scene takes its own reference to the geometry,
+        // and `Geometry`'s drop releases ours.
+        unsafe {
+            sys::rtcCommitGeometry(geometry.0);
+            take_error("rtcCommitGeometry")?;
+            sys::rtcAttachGeometryByID(self.raw, geometry.0, id);
+        }
+        take_error("rtcAttachGeometryByID")
+    }
+
+    /// Builds the BVH and returns the immutable scene.
+    pub fn commit(mut self) -> Result<Scene, Error> {
+        // SAFETY: the scene is live and uncommitted; nothing else refers to it yet.
+        unsafe { sys::rtcCommitScene(self.raw) };
+        take_error("rtcCommitScene")?;
+        for set in &self.sphere_sets {
+            if let Some(message) = set.build_panic.lock().ok().and_then(|mut p| p.take()) {
+                return Err(Error::CallbackPanic(message));
+            }
+        }
+        let raw = std::mem::replace(&mut self.raw, ptr::null_mut());
+        Ok(Scene { raw, sphere_sets: std::mem::take(&mut self.sphere_sets), _device: self.device.clone() })
+    }
+}
+
+impl Drop for SceneBuilder {
+    fn drop(&mut self) {
+        if !self.raw.is_null() {
+            // SAFETY: an uncommitted scene this builder created and still owns.
+            unsafe { sys::rtcReleaseScene(self.raw) };
+        }
+    }
+}
+
+/// A geometry handle released on drop (the scene it is attached to keeps its own reference).
+struct Geometry(sys::RTCGeometry);
+
+impl Drop for Geometry {
+    fn drop(&mut self) {
+        // SAFETY: a live geometry from `rtcNewGeometry`; this is our one release.
+        unsafe { sys::rtcReleaseGeometry(self.0) };
+    }
+}
+
+impl Device {
+    /// Test hook: sets a user-primitive count on a triangle geometry, a call Embree rejects
+    /// (`RTC_ERROR_INVALID_OPERATION`), to show that its errors come back as `Err` with
+    /// Embree's code.
+    #[doc(hidden)]
+    pub fn invalid_call_for_tests(&self) -> Result<(), Error> {
+        // SAFETY: the device is live; Embree checks the geometry type, reports the error and
+        // changes nothing.
+        let geometry = Geometry(unsafe { sys::rtcNewGeometry(self.raw(), sys::RTC_GEOMETRY_TYPE_TRIANGLE) });
+        take_error("rtcNewGeometry")?;
+        // SAFETY: as above.
+        unsafe { sys::rtcSetGeometryUserPrimitiveCount(geometry.0, 1) };
+        take_error("rtcSetGeometryUserPrimitiveCount")
+    }
+}
+
+/// A committed, immutable Embree scene, safe to query from many threads at once.
+pub struct Scene {
+    raw: sys::RTCScene,
+    // Read by the sphere callbacks through Embree's user pointers: dropped after `raw` is
+    // released (see `Drop`), never moved (boxed), never mutated.
+    #[expect(dead_code, reason = "read by Embree's callbacks through raw user pointers")]
+    sphere_sets: Vec<Box<SphereSet>>,
+    _device: Device,
+}
+
+// SAFETY: a committed scene is never modified again; Embree documents concurrent
+// `rtcIntersect*`/`rtcOccluded*` calls on it as thread-safe, and the sphere data the callbacks
+// read is immutable (its one Mutex is only used during the build).
+unsafe impl Send for Scene {}
+// SAFETY: as above: `&Scene` only allows queries.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: the committed scene this value owns; its geometries go with it. The sphere
+        // sets are dropped after this, when no callback can run any more.
+        unsafe { sys::rtcReleaseScene(self.raw) };
+    }
+}
+
+/// Embree's ray for a strahl ray. Embree accepts hits with `t ≥ tnear`; strahl's interval is
+/// open (`t > tnear`, the lecture's `t > 0`), so tnear moves up by one ulp.
+#[inline]
+fn rtc_ray(r: &Ray) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: r.org.x,
+        org_y: r.org.y,
+        org_z: r.org.z,
+        tnear: open_tnear(r.tnear),
+        dir_x: r.dir.x,
+        dir_y: r.dir.y,
+        dir_z: r.dir.z,
+        time: 0.0,
+        tfar: r.tfar,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+#[inline]
+fn open_tnear(t: f32) -> f32 {
+    // The smallest *normal* float above 0: under flush-to-zero a subnormal would read as 0.
+    if t == 0.0 { f32::MIN_POSITIVE } else { t.next_up() }
+}
+
+#[inline]
+fn empty_hit() -> sys::RTCHit {
+    let mut hit = sys::RTCHit::default();
+    hit.geomID = sys::RTC_INVALID_GEOMETRY_ID;
+    hit.primID = sys::RTC_INVALID_GEOMETRY_ID;
+    hit.instID = [sys::RTC_INVALID_GEOMETRY_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize];
+    hit
+}
+
+/// Rays per packet query.
+pub const PACKET_WIDTH: usize = 8;
+
+#[repr(C, align(32))]
+struct Valid8([i32; 8]);
+
+impl Scene {
+    /// The closest hit of `ray` in `(tnear, tfar)` (`rtcIntersect1`).
+    pub fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, Error> {
+        let mut rayhit = sys::RTCRayHit { ray: rtc_ray(ray), hit: empty_hit() };
+        let mut ctx = QueryContext::new(false);
+        let ctx_ptr: *mut QueryContext = &mut ctx;
+        // SAFETY: the scene is committed; `rayhit` is a valid, initialised RTCRayHit (its
+        // size checked against the headers by bindgen's layout asserts); `ctx_ptr` covers the
+        // whole QueryContext, whose first field is Embree's context, alive for the call.
+        unsafe {
+            #[cfg(embree3)]
+            sys::rtcIntersect1(self.raw, ctx_ptr.cast(), &mut rayhit);
+            #[cfg(embree4)]
+            {
+                let mut args = sys::init_intersect_arguments(sys::RTC_RAY_QUERY_FLAG_INCOHERENT, ctx_ptr.cast());
+                sys::rtcIntersect1(self.raw, &mut rayhit, &mut args);
+            }
+        }
+        ctx.finish("rtcIntersect1")?;
+        Ok(to_hit(&rayhit))
+    }
+
+    /// Whether anything lies on `ray` within `(tnear, tfar)` (`rtcOccluded1`).
+    pub fn occluded(&self, ray: &Ray) -> Result<bool, Error> {
+        let mut rtc = rtc_ray(ray);
+        let mut ctx = QueryContext::new(false);
+        let ctx_ptr: *mut QueryContext = &mut ctx;
+        // SAFETY: as in `intersect`, with an RTCRay.
+        unsafe {
+            #[cfg(embree3)]
+            sys::rtcOccluded1(self.raw, ctx_ptr.cast(), &mut rtc);
+            #[cfg(embree4)]
+            {
+                let mut args = sys::init_occluded_arguments(sys::RTC_RAY_QUERY_FLAG_INCOHERENT, ctx_ptr.cast());
+                sys::rtcOccluded1(self.raw, &mut rtc, &mut args);
+            }
+        }
+        ctx.finish("rtcOccluded1")?;
+        Ok(rtc.tfar == f32::NEG_INFINITY)
+    }
+
+    /// Closest hits of up to [`PACKET_WIDTH`] coherent rays in one `rtcIntersect8`;
+    /// `hits[i]` answers `rays[i]`.
+    pub fn intersect8(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), Error> {
+        let n = rays.len();
+        if n > PACKET_WIDTH || hits.len() != n {
+            return Err(Error::InvalidInput {
+                object: "ray packet".into(),
+                problem: format!("{n} rays and {} hits for a packet of {PACKET_WIDTH}", hits.len()),
+            });
+        }
+        let mut valid = Valid8([0; 8]);
+        let mut packet = sys::RTCRayHit8::default();
+        for (lane, r) in rays.iter().enumerate() {
+            valid.0[lane] = -1;
+            let (p, h) = (&mut packet.ray, &mut packet.hit);
+            (p.org_x[lane], p.org_y[lane], p.org_z[lane]) = (r.org.x, r.org.y, r.org.z);
+            (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
+            (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
+            p.mask[lane] = u32::MAX;
+            h.geomID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
+            h.primID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
+            for level in 0..sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize {
+                h.instID[level][lane] = sys::RTC_INVALID_GEOMETRY_ID;
+            }
+        }
+        let mut ctx = QueryContext::new(true);
+        let ctx_ptr: *mut QueryContext = &mut ctx;
+        // SAFETY: `valid` and `packet` are 32-byte aligned as rtcIntersect8 requires, fully
+        // initialised; inactive lanes are marked 0 in `valid`; the context is as in `intersect`.
+        unsafe {
+            #[cfg(embree3)]
+            sys::rtcIntersect8(valid.0.as_ptr(), self.raw, ctx_ptr.cast(), &mut packet);
+            #[cfg(embree4)]
+            {
+                let mut args = sys::init_intersect_arguments(sys::RTC_RAY_QUERY_FLAG_COHERENT, ctx_ptr.cast());
+                sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut packet, &mut args);
+            }
+        }
+        ctx.finish("rtcIntersect8")?;
+        for (lane, hit) in hits.iter_mut().enumerate() {
+            let h = &packet.hit;
+            *hit = (h.geomID[lane] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+                t: packet.ray.tfar[lane],
+                ng: Vec3::new(h.Ng_x[lane], h.Ng_y[lane], h.Ng_z[lane]),
+                u: h.u[lane],
+                v: h.v[lane],
+                geom_id: h.geomID[lane],
+                prim_id: h.primID[lane],
+            });
+        }
+        Ok(())
+    }
+}
+
+fn out_of_memory(what: &str) -> Error {
+    Error::Api { call: "rtcSetNewGeometryBuffer", code: sys::RTC_ERROR_OUT_OF_MEMORY, message: format!("no {what}") }
+}
+
+fn to_hit(rh: &sys::RTCRayHit) -> Option<Hit> {
+    (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+        t: rh.ray.tfar,
+        ng: Vec3::new(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z),
+        u: rh.hit.u,
+        v: rh.hit.v,
+        geom_id: rh.hit.geomID,
+        prim_id: rh.hit.primID,
+    })
+}

@@ -1,0 +1,8 @@
+//! The lecture's ray–primitive intersection formulas, shared by the native backend and the
+//! Embree user-geometry callbacks so that both trace exactly the same spheres and planes.
+
+pub mod plane;
+pub mod sphere;
+
+pub use plane::Plane;
+pub use sphere::Sphere;

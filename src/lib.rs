@@ -1,0 +1,14 @@
+//! strahl: an offline Whitted-style ray tracer that traces through Intel Embree, with a
+//! pure-Rust BVH that renders the same scenes and cross-checks Embree's hits.
+
+pub mod accel;
+pub mod embree;
+pub mod geometry;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod scene;
+
+pub use accel::{Accel, Hit, TraceError};
+pub use math::{Aabb, Ray, Vec2, Vec3};
+pub use scene::Scene;

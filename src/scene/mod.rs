@@ -1,0 +1,108 @@
+//! The scene as plain data that both backends and the integrator read: world-space triangle
+//! meshes, spheres and planes, materials, lights, the camera and the image settings.
+//!
+//! Loading (TOML, OBJ, PLY) produces a [`Scene`]; nothing downstream knows which file format
+//! it came from.
+
+pub mod mesh;
+pub mod procedural;
+
+pub use mesh::Mesh;
+
+use crate::geometry::{Plane, Sphere};
+use crate::light::Light;
+use crate::material::Material;
+use crate::math::{Aabb, Vec3};
+
+/// Where the camera stands and looks (the lecture's `e`, `z`, `up`, vertical field of view).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSpec {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub fov_deg: f32,
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        CameraSpec { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0 }
+    }
+}
+
+/// What to render: size, samples, recursion, and the radiance of rays that escape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageSpec {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel (stratified); 1 traces exactly the pixel centre.
+    pub spp: u32,
+    /// Longest chain of reflected/refracted rays after the primary one.
+    pub max_depth: u32,
+    /// Radiance of rays that hit nothing.
+    pub background: Vec3,
+    /// Uniform ambient radiance: a diffuse surface of albedo ρ reflects ρ·ambient.
+    pub ambient: Vec3,
+}
+
+impl Default for ImageSpec {
+    fn default() -> Self {
+        ImageSpec { width: 640, height: 480, spp: 1, max_depth: 8, background: Vec3::ZERO, ambient: Vec3::ZERO }
+    }
+}
+
+/// What kind of object a hit's `geom_id` names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeomKind {
+    /// `Scene::meshes[i]`; the hit's `prim_id` is the triangle.
+    Mesh(u32),
+    /// The scene's spheres; the hit's `prim_id` indexes `Scene::spheres`.
+    Spheres,
+    /// The scene's planes; the hit's `prim_id` indexes `Scene::planes`.
+    Planes,
+}
+
+/// A whole scene in world space.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub camera: CameraSpec,
+    pub image: ImageSpec,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub meshes: Vec<Mesh>,
+    pub spheres: Vec<Sphere>,
+    pub planes: Vec<Plane>,
+}
+
+impl Scene {
+    /// The geometry id of every sphere hit: one past the last mesh.
+    pub fn spheres_geom_id(&self) -> u32 {
+        self.meshes.len() as u32
+    }
+
+    /// The geometry id of every plane hit: two past the last mesh.
+    pub fn planes_geom_id(&self) -> u32 {
+        self.meshes.len() as u32 + 1
+    }
+
+    /// Which object a hit's `geom_id` names (see [`crate::accel::Hit`]).
+    pub fn geom_kind(&self, geom_id: u32) -> GeomKind {
+        let m = self.meshes.len() as u32;
+        match geom_id {
+            id if id < m => GeomKind::Mesh(id),
+            id if id == m => GeomKind::Spheres,
+            _ => GeomKind::Planes,
+        }
+    }
+
+    /// Total triangle count over all meshes.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum()
+    }
+
+    /// Bounds of the meshes and spheres (planes are unbounded and left out).
+    pub fn bounds(&self) -> Aabb {
+        let meshes = self.meshes.iter().map(|m| m.bounds());
+        let spheres = self.spheres.iter().map(|s| s.bounds());
+        meshes.chain(spheres).fold(Aabb::EMPTY, Aabb::union)
+    }
+}

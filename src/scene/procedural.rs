@@ -1,0 +1,166 @@
+//! Geometry strahl makes itself: icospheres, random spheres, random triangle soups, and the
+//! random rays tests and benchmarks trace through them. Deterministic for a given seed.
+
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+use super::Mesh;
+use crate::geometry::Sphere;
+use crate::math::{Aabb, Ray, Vec3};
+
+/// A unit icosphere: an icosahedron with each triangle split into four `subdivisions` times
+/// (20·4ⁿ triangles), vertices pushed onto the sphere, per-vertex normals equal to positions.
+pub fn icosphere(subdivisions: u32) -> Mesh {
+    let phi = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        (-1.0, phi, 0.0),
+        (1.0, phi, 0.0),
+        (-1.0, -phi, 0.0),
+        (1.0, -phi, 0.0),
+        (0.0, -1.0, phi),
+        (0.0, 1.0, phi),
+        (0.0, -1.0, -phi),
+        (0.0, 1.0, -phi),
+        (phi, 0.0, -1.0),
+        (phi, 0.0, 1.0),
+        (-phi, 0.0, -1.0),
+        (-phi, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut indices: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut midpoints = std::collections::HashMap::new();
+        let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push((positions[a as usize] + positions[b as usize]).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(indices.len() * 4);
+        for [a, b, c] in indices {
+            let ab = midpoint(a, b, &mut positions);
+            let bc = midpoint(b, c, &mut positions);
+            let ca = midpoint(c, a, &mut positions);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        indices = next;
+    }
+    Mesh {
+        name: format!("icosphere{subdivisions}"),
+        normals: Some(positions.clone()),
+        positions,
+        indices,
+        ..Default::default()
+    }
+}
+
+fn uniform_in(rng: &mut Pcg64Mcg, b: &Aabb) -> Vec3 {
+    Vec3::new(
+        rng.random_range(b.min.x..=b.max.x),
+        rng.random_range(b.min.y..=b.max.y),
+        rng.random_range(b.min.z..=b.max.z),
+    )
+}
+
+/// A direction uniformly distributed over the unit sphere.
+fn uniform_direction(rng: &mut Pcg64Mcg) -> Vec3 {
+    let z: f32 = rng.random_range(-1.0..=1.0);
+    let phi: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// `n` spheres with centres uniform in `bounds` and radii uniform in `radii`.
+pub fn random_spheres(n: usize, bounds: Aabb, radii: (f32, f32), seed: u64) -> Vec<Sphere> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    (0..n)
+        .map(|_| Sphere {
+            center: uniform_in(&mut rng, &bounds),
+            radius: rng.random_range(radii.0..=radii.1),
+            material: 0,
+        })
+        .collect()
+}
+
+/// `n` random triangles: each a random centre in `bounds` with three corners within `size` of
+/// it (overlapping, intersecting: a hard case for any BVH).
+pub fn random_triangles(n: usize, bounds: Aabb, size: f32, seed: u64) -> Mesh {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut positions = Vec::with_capacity(3 * n);
+    for _ in 0..n {
+        let c = uniform_in(&mut rng, &bounds);
+        for _ in 0..3 {
+            positions.push(c + size * uniform_direction(&mut rng));
+        }
+    }
+    let indices = (0..n as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    Mesh { name: format!("random{n}"), positions, indices, ..Default::default() }
+}
+
+/// `n` rays from points uniform in `bounds` scaled by 1.5 about its centre, in uniformly
+/// random directions (the "random" rays of the benchmarks).
+pub fn random_rays(n: usize, bounds: Aabb, seed: u64) -> Vec<Ray> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let c = bounds.centroid();
+    let grown = Aabb::new(c + 1.5 * (bounds.min - c), c + 1.5 * (bounds.max - c));
+    (0..n).map(|_| Ray::new(uniform_in(&mut rng, &grown), uniform_direction(&mut rng))).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn icosphere_counts_and_radius() {
+        for k in 0..4 {
+            let m = icosphere(k);
+            assert_eq!(m.indices.len(), 20 * 4usize.pow(k));
+            // Euler: V − E + F = 2 with E = 3F/2.
+            assert_eq!(m.positions.len(), 2 + m.indices.len() / 2);
+            assert!(m.positions.iter().all(|p| (p.length() - 1.0).abs() < 1e-6));
+            assert_eq!(m.problem(), None);
+        }
+    }
+
+    #[test]
+    fn icosphere_faces_point_outward() {
+        let m = icosphere(2);
+        for i in 0..m.indices.len() {
+            let [a, b, c] = m.triangle(i);
+            assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "triangle {i} faces inward");
+        }
+    }
+
+    #[test]
+    fn generators_are_deterministic() {
+        let b = Aabb::new(Vec3::splat(-1.0), Vec3::ONE);
+        assert_eq!(random_spheres(10, b, (0.1, 0.2), 7), random_spheres(10, b, (0.1, 0.2), 7));
+        assert_ne!(random_spheres(10, b, (0.1, 0.2), 7), random_spheres(10, b, (0.1, 0.2), 8));
+        assert_eq!(random_rays(5, b, 1), random_rays(5, b, 1));
+        let d = random_rays(1000, b, 1);
+        assert!(d.iter().all(|r| (r.dir.length() - 1.0).abs() < 1e-5));
+    }
+}
