@@ -3,7 +3,9 @@
 
 pub mod accel;
 pub mod embree;
+pub mod film;
 pub mod geometry;
+pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
