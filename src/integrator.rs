@@ -265,7 +265,8 @@ impl PixelAccumulator {
         film.rgba[i] = [rgb.x, rgb.y, rgb.z, self.hits as f32 / spp as f32];
         if let Some(t) = self.nearest {
             film.depth[i] = t;
-            film.normal[i] = self.normal.normalize_or_zero();
+            // One unit normal needs no renormalising (which could move it by an ulp).
+            film.normal[i] = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
             film.albedo[i] = self.albedo / self.hits as f32;
         }
     }
