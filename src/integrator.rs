@@ -88,6 +88,12 @@ pub const TILE_SIZE: u32 = 16;
 /// change the pixel by at most this fraction of the radiance it would find.
 pub const THROUGHPUT_CUTOFF: f32 = 1e-4;
 
+/// The largest `image.max_depth` accepted. Reflection and refraction recurse once per
+/// bounce; this bounds the stack a worker thread needs (well inside rayon's default), and
+/// no image changes visibly beyond it (even between perfect mirrors the `max_depth`-th image
+/// is a speck).
+pub const MAX_DEPTH_LIMIT: u32 = 256;
+
 /// A shadow ray towards a point light at distance `d` ends at `d·SHADOW_TFAR_SCALE`, just short
 /// of the light, so that a surface the light sits on does not shadow it.
 pub const SHADOW_TFAR_SCALE: f32 = 1.0 - 1e-4;
@@ -97,7 +103,8 @@ pub const SHADOW_TFAR_SCALE: f32 = 1.0 - 1e-4;
 /// pixels finished since its last call. Deterministic: the same bytes for any thread count.
 ///
 /// Fails before tracing anything if the camera or the scene cannot be rendered (a material
-/// index out of range, a bad light or material, `spp = 0`), and with the backend's error if
+/// index out of range, a bad light or material, `spp = 0`, `max_depth` above
+/// [`MAX_DEPTH_LIMIT`]), and with the backend's error if
 /// tracing fails.
 pub fn render<A: Accel>(
     scene: &Scene,
@@ -135,6 +142,9 @@ pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
     let bad = |object: String, problem: String| Err(TraceError::InvalidScene(format!("{object}: {problem}")));
     if scene.image.spp == 0 {
         return bad("image".into(), "spp 0 must be at least 1".into());
+    }
+    if scene.image.max_depth > MAX_DEPTH_LIMIT {
+        return bad("image".into(), format!("max_depth {} exceeds {MAX_DEPTH_LIMIT}", scene.image.max_depth));
     }
     for (name, c) in [("background", scene.image.background), ("ambient", scene.image.ambient)] {
         if !(c.is_finite() && c.min_element() >= 0.0) {

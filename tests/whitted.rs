@@ -290,6 +290,35 @@ fn total_internal_reflection_keeps_light_inside() {
 }
 
 #[test]
+fn facing_perfect_mirrors_bounce_to_the_depth_limit_without_exhausting_the_stack() {
+    // Two parallel perfect mirrors (y = 0 facing up, y = 1 facing down), the eye between them
+    // looking straight down: every bounce hits the other mirror with throughput 1, so the
+    // ray bounces exactly max_depth times and then sees nothing (the mirrors are black).
+    let mirror = Material {
+        name: "mirror".into(),
+        diffuse: Texture::Constant(Vec3::ZERO),
+        mirror: Vec3::ONE,
+        ..Default::default()
+    };
+    let max_depth = integrator::MAX_DEPTH_LIMIT;
+    let s = Scene {
+        camera: CameraSpec { eye: Vec3::new(0.0, 0.5, 0.0), target: Vec3::ZERO, up: Vec3::Z, fov_deg: 10.0 },
+        image: ImageSpec { width: 3, height: 3, spp: 1, max_depth, background: BACKGROUND, ambient: AMBIENT },
+        materials: vec![mirror],
+        planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0), Plane::through(Vec3::Y, -Vec3::Y, 0)],
+        ..Default::default()
+    };
+    // On a pool with rayon's default stack size.
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let (film, counts) = pool.install(|| common::render(&s));
+    assert_eq!(counts.reflected, 9 * max_depth as u64);
+    assert!(film.rgba.iter().all(|px| px[..3] == [0.0; 3]));
+    let too_deep = Scene { image: ImageSpec { max_depth: max_depth + 1, ..s.image }, ..s.clone() };
+    let e = integrator::render(&too_deep, &common::accel(&s), &|_| {}).unwrap_err();
+    assert_eq!(e.to_string(), format!("image: max_depth {} exceeds {max_depth}", max_depth + 1));
+}
+
+#[test]
 fn vertex_colours_and_normals_are_interpolated_barycentrically() {
     // One triangle facing the camera with red, green and blue corners and tilted normals,
     // beside a sphere: the albedo and normal AOVs are (1−u−v)q0 + u·q1 + v·q2 of the hit's
