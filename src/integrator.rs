@@ -27,6 +27,7 @@
 //! refracted rays only while `k < image.max_depth`, so at most `max_depth` secondary rays
 //! follow one another. A secondary ray is also skipped when its throughput (the product of
 //! the weights along its path) falls below [`THROUGHPUT_CUTOFF`] in every channel.
+//! `max_depth` may be at most [`MAX_DEPTH_LIMIT`] (the recursion uses the worker's stack).
 //!
 //! **Shadow rays and glass.** Every object blocks shadow rays, glass included: a glass ball
 //! casts an ordinary hard shadow. A straight shadow ray through a refracting object would be
@@ -37,13 +38,15 @@
 //!
 //! **Secondary-ray origins** are moved off the surface with
 //! [`crate::math::offset_ray_origin`] (Wächter–Binder), to the side the new ray leaves on;
-//! shadow rays stop `SHADOW_TFAR_SCALE` short of a point light.
+//! shadow rays towards a point light end just short of it ([`SHADOW_TFAR_SCALE`]).
 //!
 //! **Sampling and determinism.** `image.spp` stratified samples per pixel
 //! ([`crate::sampler`], seeded from the pixel index), box-filtered (their mean); `spp = 1`
 //! traces exactly the pixel centre. The image is split into [`TILE_SIZE`]² tiles rendered in
-//! parallel with rayon on the current pool; a tile's result depends only on the tile, so the
-//! film is bit-identical for any number of threads. What the film's channels hold is
+//! parallel with rayon on the current pool. A tile traces its samples round by round, each
+//! round one batch of primary rays ordered in 4×2-pixel blocks (one packet each); a pixel's
+//! samples are summed in sample order, ray counts are integers, and tiles are assembled in a
+//! fixed order, so the film and the counts are bit-identical for any number of threads. What the film's channels hold is
 //! documented in [`crate::film`].
 
 use rayon::prelude::*;
@@ -67,6 +70,7 @@ pub struct RayCounts {
 }
 
 impl RayCounts {
+    /// All rays of every kind.
     pub fn total(&self) -> u64 {
         self.primary + self.shadow + self.reflected + self.refracted
     }
