@@ -26,11 +26,18 @@ pub struct Hit {
 }
 
 /// A failure while tracing. Only the Embree backend can fail (an Embree error, or a panic
-/// caught in one of its callbacks); the native backend never does.
+/// caught in one of its callbacks); the native backend never does. The integrator also
+/// refuses a camera or scene it cannot render before tracing anything.
 #[derive(Debug, thiserror::Error)]
 pub enum TraceError {
     #[error(transparent)]
     Embree(#[from] crate::embree::Error),
+    /// The camera cannot be built (its message starts with `camera:`).
+    #[error(transparent)]
+    Camera(#[from] crate::camera::CameraError),
+    /// An object of the scene cannot be rendered: `sphere 3: material 7 does not exist ...`.
+    #[error("{0}")]
+    InvalidScene(String),
 }
 
 /// A ray-tracing acceleration structure over a committed, immutable scene.

@@ -1,9 +1,64 @@
-//! STUB, to be replaced by the Whitted integrator (issue 3). The signature of [`render`] and
-//! [`RayCounts`] is the contract between the renderer core and the `strahl` command.
+//! The Whitted integrator: the lecture's ray tracer, in its three steps.
+//!
+//! 1. **Ray generation** ([`crate::camera`]): for every pixel and sample, the pinhole ray
+//!    `e + t·s/|s|` through the sample's position ([`crate::sampler`]).
+//! 2. **Intersection** ([`Accel`]): the closest hit with `t > 0`. Primary rays of a tile go
+//!    to [`Accel::intersect_batch`] (Embree traces them as 8-wide packets, 2–4× faster on
+//!    coherent rays); secondary rays one at a time; shadow rays as any-hit `occluded` queries.
+//! 3. **Shading** ([`Whitted::shade`]) at the hit, with the data of [`SurfacePoint`]:
+//!
+//! ```text
+//! L = L_e + ρ·L_a                                      emission + ambient
+//!   + Σ_lights V · (ρ/π + k_s·K(n)·(n·h)^n) · E·cosθ   diffuse + normalised Blinn–Phong
+//!   + k_r · L(reflected ray)                           mirror (+ Fresnel R of a dielectric)
+//!   + k_t · T · L(refracted ray)                       Snell + Fresnel
+//! ```
+//!
+//! with `E = I/d²` for a point light of intensity `I` at distance `d` and `E` itself for a
+//! directional light, `cosθ` between the shading normal and the direction to the light, and
+//! `V` the shadow ray's verdict. A dielectric (`transmission = k_t ≠ 0`) adds `k_t·R` to the
+//! mirror weight `k_r` and refracts `k_t·T`, `R` from the exact unpolarised Fresnel equations
+//! and `T = 1 − R` ([`crate::optics`]); beyond the critical angle `R = 1` (total internal
+//! reflection). A ray entering or leaving a dielectric is told apart by the geometric normal:
+//! entering when it arrives on the side the normal points to (`ior` inside, 1 outside).
+//! Rays that escape return the background radiance.
+//!
+//! **Recursion.** The primary ray has depth 0; a hit at depth `k` spawns reflected and
+//! refracted rays only while `k < image.max_depth`, so at most `max_depth` secondary rays
+//! follow one another. A secondary ray is also skipped when its throughput (the product of
+//! the weights along its path) falls below [`THROUGHPUT_CUTOFF`] in every channel.
+//! `max_depth` may be at most [`MAX_DEPTH_LIMIT`] (the recursion uses the worker's stack).
+//!
+//! **Shadow rays and glass.** Every object blocks shadow rays, glass included: a glass ball
+//! casts an ordinary hard shadow. A straight shadow ray through a refracting object would be
+//! physically wrong either way: the light that really reaches the shadow is focused into
+//! caustics, which a Whitted tracer cannot find; letting it through unbent (perhaps
+//! tinted) would paint a lit disc where the real image has a dark shadow with a bright
+//! caustic somewhere else. The ordinary shadow is the lecture's, and the honest one.
+//!
+//! **Secondary-ray origins** are moved off the surface with
+//! [`crate::math::offset_ray_origin`] (Wächter–Binder), to the side the new ray leaves on;
+//! shadow rays towards a point light end just short of it ([`SHADOW_TFAR_SCALE`]).
+//!
+//! **Sampling and determinism.** `image.spp` stratified samples per pixel
+//! ([`crate::sampler`], seeded from the pixel index), box-filtered (their mean); `spp = 1`
+//! traces exactly the pixel centre. The image is split into [`TILE_SIZE`]² tiles rendered in
+//! parallel with rayon on the current pool. A tile traces its samples round by round, each
+//! round one batch of primary rays ordered in 4×2-pixel blocks (one packet each); a pixel's
+//! samples are summed in sample order, ray counts are integers, and tiles are assembled in a
+//! fixed order, so the film and the counts are bit-identical for any number of threads. What the film's channels hold is
+//! documented in [`crate::film`].
 
-use crate::accel::{Accel, TraceError};
+use rayon::prelude::*;
+
+use crate::accel::{Accel, Hit, TraceError};
+use crate::camera::Camera;
 use crate::film::Film;
+use crate::math::{Ray, Vec3, offset_ray_origin};
+use crate::optics;
+use crate::sampler::PixelSampler;
 use crate::scene::Scene;
+use crate::surface::SurfacePoint;
 
 /// Rays traced, by kind, for the summary the command prints.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -15,25 +70,374 @@ pub struct RayCounts {
 }
 
 impl RayCounts {
+    /// All rays of every kind.
     pub fn total(&self) -> u64 {
         self.primary + self.shadow + self.reflected + self.refracted
     }
 }
 
+impl std::ops::AddAssign for RayCounts {
+    fn add_assign(&mut self, o: RayCounts) {
+        self.primary += o.primary;
+        self.shadow += o.shadow;
+        self.reflected += o.reflected;
+        self.refracted += o.refracted;
+    }
+}
+
+/// Edge length in pixels of the square tiles rendered in parallel.
+pub const TILE_SIZE: u32 = 16;
+
+/// A secondary ray whose throughput is below this in every channel is not traced: it could
+/// change the pixel by at most this fraction of the radiance it would find.
+pub const THROUGHPUT_CUTOFF: f32 = 1e-4;
+
+/// The largest `image.max_depth` accepted. Reflection and refraction recurse once per
+/// bounce; this bounds the stack a worker thread needs (well inside rayon's default), and
+/// no image changes visibly beyond it (even between perfect mirrors the `max_depth`-th image
+/// is a speck).
+pub const MAX_DEPTH_LIMIT: u32 = 256;
+
+/// A shadow ray towards a point light at distance `d` ends at `d·SHADOW_TFAR_SCALE`, just short
+/// of the light, so that a surface the light sits on does not shadow it.
+pub const SHADOW_TFAR_SCALE: f32 = 1.0 - 1e-4;
+
 /// Renders `scene` (its `image` settings: size, spp, depth, background) with `accel`, in
 /// parallel over tiles on the current rayon pool. `progress` is called with the number of
 /// pixels finished since its last call. Deterministic: the same bytes for any thread count.
+///
+/// Fails before tracing anything if the camera or the scene cannot be rendered (a material
+/// index out of range, a bad light or material, `spp = 0`, `max_depth` above
+/// [`MAX_DEPTH_LIMIT`]), and with the backend's error if
+/// tracing fails.
 pub fn render<A: Accel>(
     scene: &Scene,
     accel: &A,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Film, RayCounts), TraceError> {
-    let _ = accel;
+    check_scene(scene)?;
     let img = &scene.image;
+    let camera = Camera::new(&scene.camera, img.width, img.height)?;
+    let whitted = Whitted { scene, accel, camera };
+    let tiles = tiles(img.width, img.height);
+    let done: Vec<TileResult> = tiles
+        .par_iter()
+        .map(|tile| {
+            let result = whitted.render_tile(tile);
+            progress(tile.pixel_count());
+            result
+        })
+        .collect::<Result<_, _>>()?;
+
     let mut film = Film::new(img.width, img.height);
-    for px in &mut film.rgba {
-        *px = [img.background.x, img.background.y, img.background.z, 0.0];
+    let mut counts = RayCounts::default();
+    for tile in done {
+        counts += tile.counts;
+        for (&(x, y), acc) in tile.pixels.iter().zip(&tile.accumulators) {
+            acc.write(&mut film, x, y, img.spp);
+        }
     }
-    progress(img.width as u64 * img.height as u64);
-    Ok((film, RayCounts::default()))
+    Ok((film, counts))
+}
+
+/// Checks everything the integrator indexes or divides by, so that rendering cannot panic or
+/// produce NaN from bad input. Errors name the object: `sphere 3: material 7 does not exist`.
+pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
+    let bad = |object: String, problem: String| Err(TraceError::InvalidScene(format!("{object}: {problem}")));
+    if scene.image.spp == 0 {
+        return bad("image".into(), "spp 0 must be at least 1".into());
+    }
+    if scene.image.max_depth > MAX_DEPTH_LIMIT {
+        return bad("image".into(), format!("max_depth {} exceeds {MAX_DEPTH_LIMIT}", scene.image.max_depth));
+    }
+    for (name, c) in [("background", scene.image.background), ("ambient", scene.image.ambient)] {
+        if !(c.is_finite() && c.min_element() >= 0.0) {
+            return bad("image".into(), format!("{name} {c} must be finite and ≥ 0"));
+        }
+    }
+    for (i, m) in scene.materials.iter().enumerate() {
+        if let Some(problem) = m.problem() {
+            return bad(format!("material {i} '{}'", m.name), problem);
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        if let Some(problem) = l.problem() {
+            return bad(format!("light {i}"), problem);
+        }
+    }
+    let n = scene.materials.len();
+    let missing = |m: u32| (m as usize >= n).then(|| format!("material {m} does not exist (the scene has {n})"));
+    for (i, mesh) in scene.meshes.iter().enumerate() {
+        let object = format!("mesh {i} '{}'", mesh.name);
+        if let Some(problem) = mesh.problem() {
+            return bad(object, problem);
+        }
+        let per_triangle = mesh.triangle_materials.iter().flatten().copied();
+        if let Some(problem) = std::iter::once(mesh.material).chain(per_triangle).find_map(missing) {
+            return bad(object, problem);
+        }
+    }
+    for (i, s) in scene.spheres.iter().enumerate() {
+        if let Some(problem) = s.problem().or_else(|| missing(s.material)) {
+            return bad(format!("sphere {i}"), problem);
+        }
+    }
+    for (i, p) in scene.planes.iter().enumerate() {
+        if let Some(problem) = p.problem().or_else(|| missing(p.material)) {
+            return bad(format!("plane {i}"), problem);
+        }
+    }
+    Ok(())
+}
+
+/// A rectangle of pixels `[x0, x1) × [y0, y1)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl Tile {
+    fn pixel_count(&self) -> u64 {
+        (self.x1 - self.x0) as u64 * (self.y1 - self.y0) as u64
+    }
+
+    /// The tile's pixels in the order their rays are traced: blocks of 4×2 pixels, so that
+    /// each 8-ray packet covers a compact patch of the image (the most coherent rays).
+    fn pixels_in_packet_order(&self) -> Vec<(u32, u32)> {
+        let mut out = Vec::with_capacity(self.pixel_count() as usize);
+        for by in (self.y0..self.y1).step_by(2) {
+            for bx in (self.x0..self.x1).step_by(4) {
+                for y in by..(by + 2).min(self.y1) {
+                    for x in bx..(bx + 4).min(self.x1) {
+                        out.push((x, y));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The image's tiles, row by row.
+fn tiles(width: u32, height: u32) -> Vec<Tile> {
+    let mut out = Vec::new();
+    for y0 in (0..height).step_by(TILE_SIZE as usize) {
+        for x0 in (0..width).step_by(TILE_SIZE as usize) {
+            out.push(Tile { x0, y0, x1: (x0 + TILE_SIZE).min(width), y1: (y0 + TILE_SIZE).min(height) });
+        }
+    }
+    out
+}
+
+/// What a tile produced: its pixels (in packet order), their accumulated samples, its rays.
+struct TileResult {
+    pixels: Vec<(u32, u32)>,
+    accumulators: Vec<PixelAccumulator>,
+    counts: RayCounts,
+}
+
+/// What a primary ray found at its first hit, for the AOVs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstHit {
+    /// Distance from the eye (the primary ray's direction has unit length).
+    pub t: f32,
+    /// World-space unit shading normal, facing the eye.
+    pub normal: Vec3,
+    /// Diffuse albedo.
+    pub albedo: Vec3,
+}
+
+/// The running sums of one pixel's samples (added in sample order, so deterministically).
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelAccumulator {
+    radiance: Vec3,
+    hits: u32,
+    nearest: Option<f32>,
+    normal: Vec3,
+    albedo: Vec3,
+}
+
+impl PixelAccumulator {
+    fn add(&mut self, radiance: Vec3, first: Option<FirstHit>) {
+        self.radiance += radiance;
+        if let Some(f) = first {
+            self.hits += 1;
+            self.nearest = Some(self.nearest.map_or(f.t, |t| t.min(f.t)));
+            self.normal += f.normal;
+            self.albedo += f.albedo;
+        }
+    }
+
+    /// Box filter: the mean over all `spp` samples for RGB and alpha, over the hit samples for
+    /// normal and albedo; the nearest hit for depth (see [`crate::film`]).
+    fn write(&self, film: &mut Film, x: u32, y: u32, spp: u32) {
+        let i = film.index(x, y);
+        let rgb = self.radiance / spp as f32;
+        film.rgba[i] = [rgb.x, rgb.y, rgb.z, self.hits as f32 / spp as f32];
+        if let Some(t) = self.nearest {
+            film.depth[i] = t;
+            // One unit normal needs no renormalising (which could move it by an ulp).
+            film.normal[i] = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
+            film.albedo[i] = self.albedo / self.hits as f32;
+        }
+    }
+}
+
+/// The Whitted integrator over one scene, camera and acceleration structure.
+pub struct Whitted<'a, A: Accel> {
+    pub scene: &'a Scene,
+    pub accel: &'a A,
+    pub camera: Camera,
+}
+
+impl<A: Accel> Whitted<'_, A> {
+    /// Renders one tile: all its pixels' samples, sample by sample, each round as one batch
+    /// of primary rays.
+    fn render_tile(&self, tile: &Tile) -> Result<TileResult, TraceError> {
+        // Embree asks for flush-to-zero in every thread that traces; setting it here (two
+        // instructions) also makes shading arithmetic identical on every worker, whatever
+        // the pool's start handler did.
+        crate::embree::enable_flush_to_zero();
+        let width = self.scene.image.width as u64;
+        let pixels = tile.pixels_in_packet_order();
+        let mut samplers: Vec<PixelSampler> =
+            pixels.iter().map(|&(x, y)| PixelSampler::new(self.scene.image.spp, y as u64 * width + x as u64)).collect();
+        let mut accumulators = vec![PixelAccumulator::default(); pixels.len()];
+        let mut counts = RayCounts::default();
+        let mut rays = Vec::with_capacity(pixels.len());
+        let mut hits = vec![None; pixels.len()];
+        for _sample in 0..self.scene.image.spp {
+            // 1. Ray generation.
+            rays.clear();
+            rays.extend(pixels.iter().zip(&mut samplers).map(|(&(x, y), s)| self.camera.ray(x, y, s.next_offset())));
+            counts.primary += rays.len() as u64;
+            // 2. Intersection, as packets.
+            self.accel.intersect_batch(&rays, &mut hits)?;
+            // 3. Shading.
+            for ((ray, hit), acc) in rays.iter().zip(&hits).zip(&mut accumulators) {
+                let (radiance, first) = self.shade_primary(ray, hit.as_ref(), &mut counts)?;
+                acc.add(radiance, first);
+            }
+        }
+        Ok(TileResult { pixels, accumulators, counts })
+    }
+
+    /// The radiance along a primary ray whose closest hit is `hit`, and what the AOVs record
+    /// of that hit.
+    pub fn shade_primary(
+        &self,
+        ray: &Ray,
+        hit: Option<&Hit>,
+        counts: &mut RayCounts,
+    ) -> Result<(Vec3, Option<FirstHit>), TraceError> {
+        let Some(hit) = hit else {
+            return Ok((self.scene.image.background, None));
+        };
+        let sp = SurfacePoint::new(self.scene, ray, hit);
+        let first = FirstHit { t: hit.t, normal: sp.ns, albedo: sp.albedo };
+        Ok((self.shade(ray, &sp, 0, Vec3::ONE, counts)?, Some(first)))
+    }
+
+    /// Steps 2 and 3 for a secondary ray at recursion depth `depth` whose path so far weighs
+    /// `throughput`: the radiance arriving along it.
+    pub fn trace(&self, ray: &Ray, depth: u32, throughput: Vec3, counts: &mut RayCounts) -> Result<Vec3, TraceError> {
+        match self.accel.intersect(ray)? {
+            None => Ok(self.scene.image.background),
+            Some(hit) => {
+                let sp = SurfacePoint::new(self.scene, ray, &hit);
+                self.shade(ray, &sp, depth, throughput, counts)
+            }
+        }
+    }
+
+    /// Step 3: the radiance leaving `sp` back along `ray` (see the module docs for the
+    /// formula), tracing shadow, reflected and refracted rays as needed.
+    pub fn shade(
+        &self,
+        ray: &Ray,
+        sp: &SurfacePoint,
+        depth: u32,
+        throughput: Vec3,
+        counts: &mut RayCounts,
+    ) -> Result<Vec3, TraceError> {
+        let scene = self.scene;
+        let m = &scene.materials[sp.material as usize];
+        let wo = -ray.dir;
+
+        // Emission and ambient: a diffuse surface under uniform radiance L_a reflects ρ·L_a.
+        let mut l = m.emission + sp.albedo * scene.image.ambient;
+
+        // Direct light, one shadow ray per light.
+        if sp.albedo != Vec3::ZERO || m.specular != Vec3::ZERO {
+            let origin = offset_ray_origin(sp.p, sp.ng);
+            for light in &scene.lights {
+                let Some(inc) = light.incidence(sp.p) else { continue };
+                let cos = sp.ns.dot(inc.to_light);
+                if cos <= 0.0 || sp.ng.dot(inc.to_light) <= 0.0 {
+                    continue; // behind the surface: self-shadowed without a ray
+                }
+                let shadow = if inc.distance.is_finite() {
+                    let to = (sp.p + inc.distance * inc.to_light) - origin;
+                    let d = to.length();
+                    Ray::segment(origin, to / d, 0.0, d * SHADOW_TFAR_SCALE)
+                } else {
+                    Ray::new(origin, inc.to_light)
+                };
+                counts.shadow += 1;
+                if self.accel.occluded(&shadow)? {
+                    continue;
+                }
+                let mut brdf = optics::lambert(sp.albedo);
+                if m.specular != Vec3::ZERO {
+                    let h = (inc.to_light + wo).normalize_or_zero();
+                    brdf += m.specular * optics::blinn_phong(sp.ns.dot(h), m.shininess);
+                }
+                l += brdf * inc.normal_irradiance * cos;
+            }
+        }
+
+        if depth >= scene.image.max_depth {
+            return Ok(l);
+        }
+
+        // Mirror and dielectric weights.
+        let mut reflect_weight = m.mirror;
+        let mut refract = None;
+        if m.is_dielectric() {
+            let (eta_i, eta_t) = if sp.front_face { (1.0, m.ior) } else { (m.ior, 1.0) };
+            let r = optics::fresnel_dielectric(wo.dot(sp.ns), eta_i, eta_t);
+            reflect_weight += r * m.transmission;
+            if r < 1.0 {
+                let eta = eta_i / eta_t;
+                // Refract about the shading normal unless that sends the ray back out of the
+                // surface; then about the geometric one.
+                let dir = optics::refract(ray.dir, sp.ns, eta)
+                    .filter(|t| t.dot(sp.ng) < 0.0)
+                    .or_else(|| optics::refract(ray.dir, sp.ng, eta).filter(|t| t.dot(sp.ng) < 0.0));
+                refract = dir.map(|d| (d.normalize(), (1.0 - r) * m.transmission));
+            }
+        }
+
+        // Reflection.
+        if (throughput * reflect_weight).max_element() >= THROUGHPUT_CUTOFF {
+            let mut dir = optics::reflect(ray.dir, sp.ns);
+            if dir.dot(sp.ng) <= 0.0 {
+                dir = optics::reflect(ray.dir, sp.ng); // the shading normal bent it into the surface
+            }
+            let reflected = Ray::new(offset_ray_origin(sp.p, sp.ng), dir.normalize());
+            counts.reflected += 1;
+            l += reflect_weight * self.trace(&reflected, depth + 1, throughput * reflect_weight, counts)?;
+        }
+
+        // Refraction.
+        if let Some((dir, weight)) = refract.filter(|(_, w)| (throughput * *w).max_element() >= THROUGHPUT_CUTOFF) {
+            let refracted = Ray::new(offset_ray_origin(sp.p, -sp.ng), dir);
+            counts.refracted += 1;
+            l += weight * self.trace(&refracted, depth + 1, throughput * weight, counts)?;
+        }
+        Ok(l)
+    }
 }

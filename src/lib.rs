@@ -2,6 +2,7 @@
 //! pure-Rust BVH that renders the same scenes and cross-checks Embree's hits.
 
 pub mod accel;
+pub mod camera;
 pub mod embree;
 pub mod film;
 pub mod geometry;
@@ -9,7 +10,10 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod optics;
+pub mod sampler;
 pub mod scene;
+pub mod surface;
 
 pub use accel::{Accel, Hit, TraceError};
 pub use math::{Aabb, Ray, Vec2, Vec3};

@@ -1,6 +1,9 @@
 //! Surface materials for Whitted shading: a diffuse albedo (constant or Whitted's 1980
 //! checkerboard), a normalised Blinn–Phong highlight, an ideal mirror, a dielectric
 //! (Snell + Fresnel) and emission. All reflectances are in [0, 1] per channel.
+//!
+//! The formulas themselves live in [`crate::optics`]; this module holds the parameters and
+//! evaluates the texture.
 
 use crate::math::Vec3;
 
@@ -14,23 +17,65 @@ pub enum Texture {
     Checker { even: Vec3, odd: Vec3, size: f32 },
 }
 
-/// A surface material. Energy: `diffuse + specular + mirror` should not exceed 1 per channel,
-/// and a dielectric splits what it gets between reflection and refraction by Fresnel.
+/// How far (in units of the checker `size`) a texture lookup moves a point against the
+/// surface's outward normal before choosing its cell.
+const CHECKER_INSET: f32 = 1e-4;
+
+impl Texture {
+    /// The albedo at world-space point `p` of a surface whose outward geometric normal is
+    /// `ng_outward` (unit, not flipped towards the viewer).
+    ///
+    /// A surface lying exactly on a cell boundary (Whitted's floor at `y = 0` or `y = −1` with
+    /// `size = 1`) would otherwise pick one of the two cells at random from the rounding of
+    /// its hit points. The lookup therefore moves `p` by `10⁻⁴·size` into the object (against
+    /// the outward normal), which decides such ties the same way everywhere and moves the
+    /// checker's edges by a negligible amount elsewhere.
+    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3) -> Vec3 {
+        match *self {
+            Texture::Constant(c) => c,
+            Texture::Checker { even, odd, size } => {
+                let q = (p - CHECKER_INSET * size * ng_outward) / size;
+                let cell = q.x.floor() as i64 + q.y.floor() as i64 + q.z.floor() as i64;
+                if cell.rem_euclid(2) == 0 { even } else { odd }
+            }
+        }
+    }
+
+    /// Why this texture cannot be used, if it cannot.
+    pub fn problem(&self) -> Option<String> {
+        match *self {
+            Texture::Constant(c) => bad_colour("diffuse", c),
+            Texture::Checker { even, odd, size } => bad_colour("checker even", even)
+                .or_else(|| bad_colour("checker odd", odd))
+                .or_else(|| (!(size > 0.0 && size.is_finite())).then(|| format!("checker size {size} must be > 0"))),
+        }
+    }
+}
+
+/// A surface material.
+///
+/// Energy: a surface reflects at most what it receives when `diffuse + specular + mirror +
+/// transmission ≤ 1` per channel. `transmission` is the weight of the dielectric interface,
+/// which Fresnel splits into reflection (`R`) and refraction (`T = 1 − R`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     /// Diffuse albedo ρ: the surface reflects `ρ/π` (Lambert). Multiplied by the mesh's
     /// per-vertex colour where it has one.
     pub diffuse: Texture,
-    /// Weight of the normalised Blinn–Phong lobe `k_s · (n+8)/(8π) · (n·h)^n`.
+    /// Weight `k_s` of the normalised Blinn–Phong lobe `k_s · K(n) · (n·h)^n`, with
+    /// `K(n)` from [`crate::optics::blinn_phong_normalization`].
     pub specular: Vec3,
-    /// Blinn–Phong exponent `n`.
+    /// Blinn–Phong exponent `n` (≥ 0).
     pub shininess: f32,
     /// Reflectance of the ideal mirror direction.
     pub mirror: Vec3,
-    /// Filter on light refracted through the surface; zero for an opaque material.
+    /// Weight of the dielectric interface, zero for an opaque material: of the light it
+    /// governs, the Fresnel reflectance `R` is mirrored and `T = 1 − R` refracted (Snell).
+    /// A colour tints both, at every crossing of the surface.
     pub transmission: Vec3,
-    /// Index of refraction of the inside (the side the geometric normal points away from).
+    /// Index of refraction of the inside (the side the geometric normal points away from);
+    /// the outside is vacuum (1).
     pub ior: f32,
     /// Emitted radiance.
     pub emission: Vec3,
@@ -49,5 +94,73 @@ impl Default for Material {
             ior: 1.5,
             emission: Vec3::ZERO,
         }
+    }
+}
+
+impl Material {
+    /// Whether light passes through the surface (a dielectric).
+    #[inline]
+    pub fn is_dielectric(&self) -> bool {
+        self.transmission != Vec3::ZERO
+    }
+
+    /// Why this material cannot be rendered, if it cannot: a negative or non-finite
+    /// coefficient, a negative or non-finite exponent, an index of refraction ≤ 0.
+    pub fn problem(&self) -> Option<String> {
+        self.diffuse
+            .problem()
+            .or_else(|| bad_colour("specular", self.specular))
+            .or_else(|| bad_colour("mirror", self.mirror))
+            .or_else(|| bad_colour("transmission", self.transmission))
+            .or_else(|| bad_colour("emission", self.emission))
+            .or_else(|| {
+                (!(self.shininess >= 0.0 && self.shininess.is_finite()))
+                    .then(|| format!("shininess {} must be a finite number ≥ 0", self.shininess))
+            })
+            .or_else(|| {
+                (!(self.ior > 0.0 && self.ior.is_finite()))
+                    .then(|| format!("ior {} must be a finite number > 0", self.ior))
+            })
+    }
+}
+
+fn bad_colour(what: &str, c: Vec3) -> Option<String> {
+    (!(c.is_finite() && c.min_element() >= 0.0)).then(|| format!("{what} {c} must be finite and ≥ 0"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CHECKER: Texture = Texture::Checker { even: Vec3::ONE, odd: Vec3::ZERO, size: 1.0 };
+
+    #[test]
+    fn checker_cells_alternate() {
+        let up = Vec3::Y;
+        assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, 0.5, 0.5), up), Vec3::ONE);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, 0.5, 0.5), up), Vec3::ZERO);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, 0.5, 0.5), up), Vec3::ZERO);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, -0.5, 0.5), up), Vec3::ONE);
+    }
+
+    #[test]
+    fn a_floor_on_a_cell_boundary_is_one_cell_thick() {
+        // Points on y = 0, a hair above and below it: all take the cell below (y ∈ [−1, 0)).
+        for y in [0.0f32, 1e-7, -1e-7] {
+            assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, y, 0.5), Vec3::Y), Vec3::ZERO, "y = {y}");
+            assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, y, 0.5), Vec3::Y), Vec3::ONE, "y = {y}");
+        }
+    }
+
+    #[test]
+    fn problems_are_named() {
+        assert_eq!(Material::default().problem(), None);
+        let m = Material { ior: 0.0, ..Default::default() };
+        assert!(m.problem().unwrap().starts_with("ior 0"));
+        let m = Material { mirror: Vec3::new(0.0, -1.0, 0.0), ..Default::default() };
+        assert!(m.problem().unwrap().starts_with("mirror"));
+        let m =
+            Material { diffuse: Texture::Checker { even: Vec3::ONE, odd: Vec3::ONE, size: 0.0 }, ..Default::default() };
+        assert!(m.problem().unwrap().starts_with("checker size 0"));
     }
 }

@@ -1,11 +1,14 @@
-//! Geometry strahl makes itself: icospheres, random spheres, random triangle soups, and the
-//! random rays tests and benchmarks trace through them. Deterministic for a given seed.
+//! Geometry strahl makes itself: icospheres, random spheres, random triangle soups, the
+//! random rays tests and benchmarks trace through them, and a small Whitted scene for
+//! renderer tests and benchmarks. Deterministic for a given seed.
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use super::Mesh;
-use crate::geometry::Sphere;
+use super::{CameraSpec, ImageSpec, Mesh, Scene};
+use crate::geometry::{Plane, Sphere};
+use crate::light::Light;
+use crate::material::{Material, Texture};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A unit icosphere: an icosahedron with each triangle split into four `subdivisions` times
@@ -127,6 +130,82 @@ pub fn random_rays(n: usize, bounds: Aabb, seed: u64) -> Vec<Ray> {
     let c = bounds.centroid();
     let grown = Aabb::new(c + 1.5 * (bounds.min - c), c + 1.5 * (bounds.max - c));
     (0..n).map(|_| Ray::new(uniform_in(&mut rng, &grown), uniform_direction(&mut rng))).collect()
+}
+
+/// Whitted's 1980 picture, more or less, at `width × height` pixels and `spp` samples: a
+/// red-and-yellow checkered floor, a mirror ball, a glass ball (ior 1.5), a glossy icosphere
+/// mesh with vertex normals, and three small diffuse balls, under a point light and a
+/// directional light, against a blue background. Every kind of ray the integrator traces
+/// occurs in it.
+pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
+    let matte =
+        |name: &str, rho: Vec3| Material { name: name.into(), diffuse: Texture::Constant(rho), ..Default::default() };
+    let materials = vec![
+        Material {
+            name: "floor".into(),
+            diffuse: Texture::Checker { even: Vec3::new(0.8, 0.1, 0.1), odd: Vec3::new(0.8, 0.8, 0.1), size: 1.0 },
+            ..Default::default()
+        },
+        Material {
+            name: "mirror".into(),
+            diffuse: Texture::Constant(Vec3::splat(0.05)),
+            mirror: Vec3::splat(0.9),
+            ..Default::default()
+        },
+        Material {
+            name: "glass".into(),
+            diffuse: Texture::Constant(Vec3::ZERO),
+            transmission: Vec3::ONE,
+            ior: 1.5,
+            ..Default::default()
+        },
+        Material {
+            name: "glossy".into(),
+            diffuse: Texture::Constant(Vec3::new(0.1, 0.3, 0.6)),
+            specular: Vec3::splat(0.3),
+            shininess: 40.0,
+            ..Default::default()
+        },
+        matte("green", Vec3::new(0.2, 0.7, 0.2)),
+        matte("white", Vec3::splat(0.75)),
+    ];
+    let mut ball = icosphere(3);
+    ball.name = "glossy icosphere".into();
+    ball.material = 3;
+    for p in &mut ball.positions {
+        *p = 0.8 * *p + Vec3::new(-1.6, 0.8, -0.6);
+    }
+    let spheres = vec![
+        Sphere { center: Vec3::new(0.0, 1.0, -1.5), radius: 1.0, material: 1 },
+        Sphere { center: Vec3::new(1.3, 0.9, 0.8), radius: 0.9, material: 2 },
+        Sphere { center: Vec3::new(2.6, 0.4, -1.2), radius: 0.4, material: 4 },
+        Sphere { center: Vec3::new(-0.4, 0.3, 1.4), radius: 0.3, material: 5 },
+        Sphere { center: Vec3::new(-2.8, 0.5, 0.9), radius: 0.5, material: 4 },
+    ];
+    Scene {
+        camera: CameraSpec {
+            eye: Vec3::new(0.5, 2.2, 6.5),
+            target: Vec3::new(0.0, 0.7, 0.0),
+            up: Vec3::Y,
+            fov_deg: 45.0,
+        },
+        image: ImageSpec {
+            width,
+            height,
+            spp,
+            max_depth: 8,
+            background: Vec3::new(0.35, 0.55, 0.9),
+            ambient: Vec3::splat(0.05),
+        },
+        materials,
+        lights: vec![
+            Light::Point { position: Vec3::new(-3.0, 6.0, 4.0), intensity: Vec3::splat(60.0) },
+            Light::Directional { direction: Vec3::new(1.0, -2.0, -1.0), irradiance: Vec3::new(1.0, 0.95, 0.8) },
+        ],
+        meshes: vec![ball],
+        spheres,
+        planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0)],
+    }
 }
 
 #[cfg(test)]

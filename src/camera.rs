@@ -1,0 +1,183 @@
+//! The lecture's pinhole camera: ray generation, the first of the tracer's three steps.
+//!
+//! From the eye `e`, the target `z` and the `up` vector it builds the orthonormal basis
+//!
+//! ```text
+//! w = (e − z) / |e − z|      (points backwards, away from what the camera sees)
+//! u = up × w / |up × w|      (to the right)
+//! v = w × u                  (up in the image)
+//! ```
+//!
+//! and puts the image plane at distance `d` in front of the eye (along `−w`), with edges
+//! `t = d·tan(fov/2)`, `b = −t`, `r = t·W/H`, `l = −r` from the vertical field of view and the
+//! aspect ratio. Pixel `(x, y)`, with `y = 0` the top row, is the square
+//! `[x, x+1) × [y, y+1)`; the point `(x + ox, y + oy)` inside it (`ox = oy = 0.5` is the
+//! centre) lies at image-plane coordinates
+//!
+//! ```text
+//! u = l + (r − l)(x + ox)/W,    v = t + (b − t)(y + oy)/H
+//! ```
+//!
+//! and its ray is `r(t) = e + t·s/|s|` with `s = u·u + v·v − d·w`. The direction has unit
+//! length, so `t` along a camera ray is a distance from the eye.
+//!
+//! The basis and the ray directions are computed in f64 and rounded to f32 once, so a ray is
+//! the correctly rounded lecture formula: the centre pixel of an odd-sized image looks exactly
+//! along `−w` (as f32), and rays of neighbouring pixels differ by what the geometry says, not
+//! by rounding noise.
+
+use glam::DVec3;
+
+use crate::math::{Ray, Vec2, Vec3};
+use crate::scene::CameraSpec;
+
+/// Distance `d` from the eye to the image plane. Any `d > 0` gives the same rays (`l, r, b, t`
+/// scale with it); 1 keeps the numbers small.
+pub const IMAGE_PLANE_DISTANCE: f64 = 1.0;
+
+/// Why a camera cannot be built. Each message is one line and starts with `camera`.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    #[error("camera: {what} {value} is not finite")]
+    NotFinite { what: &'static str, value: String },
+    #[error("camera: eye and target are the same point {0}, so there is no view direction")]
+    EyeIsTarget(Vec3),
+    #[error("camera: up {up} is zero or parallel to the view direction {view}")]
+    UpParallelToView { up: Vec3, view: Vec3 },
+    #[error("camera: fov_deg {0} is not between 0 and 180 degrees (exclusive)")]
+    FovOutOfRange(f32),
+    #[error("camera: the image size {width}×{height} has no pixels")]
+    EmptyImage { width: u32, height: u32 },
+}
+
+/// A pinhole camera for an image of `width × height` pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    eye: DVec3,
+    u: DVec3,
+    v: DVec3,
+    w: DVec3,
+    /// Image-plane edges at distance [`IMAGE_PLANE_DISTANCE`]: left, right, bottom, top.
+    l: f64,
+    r: f64,
+    b: f64,
+    t: f64,
+    width: u32,
+    height: u32,
+}
+
+/// `up` counts as parallel to the view direction when the sine of the angle between them is
+/// below this: the basis would then be dominated by rounding.
+const PARALLEL_SINE: f64 = 1e-6;
+
+impl Camera {
+    /// The camera of `spec` for an image of `width × height` pixels.
+    pub fn new(spec: &CameraSpec, width: u32, height: u32) -> Result<Camera, CameraError> {
+        let finite = |what: &'static str, v: Vec3| {
+            if v.is_finite() { Ok(()) } else { Err(CameraError::NotFinite { what, value: v.to_string() }) }
+        };
+        finite("eye", spec.eye)?;
+        finite("target", spec.target)?;
+        finite("up", spec.up)?;
+        if !spec.fov_deg.is_finite() {
+            return Err(CameraError::NotFinite { what: "fov_deg", value: spec.fov_deg.to_string() });
+        }
+        if !(spec.fov_deg > 0.0 && spec.fov_deg < 180.0) {
+            return Err(CameraError::FovOutOfRange(spec.fov_deg));
+        }
+        if width == 0 || height == 0 {
+            return Err(CameraError::EmptyImage { width, height });
+        }
+        let (eye, target, up) = (spec.eye.as_dvec3(), spec.target.as_dvec3(), spec.up.as_dvec3());
+        let back = eye - target;
+        if back == DVec3::ZERO {
+            return Err(CameraError::EyeIsTarget(spec.eye));
+        }
+        let w = back.normalize();
+        let side = up.cross(w);
+        if up == DVec3::ZERO || side.length() < PARALLEL_SINE * up.length() {
+            return Err(CameraError::UpParallelToView { up: spec.up, view: (-w).as_vec3() });
+        }
+        let u = side.normalize();
+        let v = w.cross(u).normalize();
+        let t = IMAGE_PLANE_DISTANCE * (0.5 * (spec.fov_deg as f64).to_radians()).tan();
+        let r = t * width as f64 / height as f64;
+        Ok(Camera { eye, u, v, w, l: -r, r, b: -t, t, width, height })
+    }
+
+    /// The basis `(u, v, w)`: right, up, and backwards (away from the target).
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        (self.u.as_vec3(), self.v.as_vec3(), self.w.as_vec3())
+    }
+
+    /// The eye point `e`, where every camera ray starts.
+    pub fn eye(&self) -> Vec3 {
+        self.eye.as_vec3()
+    }
+
+    /// The image-plane edges `(l, r, b, t)` at distance [`IMAGE_PLANE_DISTANCE`].
+    pub fn edges(&self) -> (f64, f64, f64, f64) {
+        (self.l, self.r, self.b, self.t)
+    }
+
+    /// Image size in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// The unnormalised direction `s = u·u + v·v − d·w` through the point `(x + ox, y + oy)` of
+    /// the image, in f64.
+    pub fn direction_f64(&self, x: u32, y: u32, offset: Vec2) -> DVec3 {
+        let fx = (x as f64 + offset.x as f64) / self.width as f64;
+        let fy = (y as f64 + offset.y as f64) / self.height as f64;
+        let u = self.l + (self.r - self.l) * fx;
+        let v = self.t + (self.b - self.t) * fy;
+        u * self.u + v * self.v - IMAGE_PLANE_DISTANCE * self.w
+    }
+
+    /// The ray through the point `offset` (each coordinate in `[0, 1)`, `(0.5, 0.5)` the
+    /// centre) of pixel `(x, y)`, with a unit direction.
+    #[inline]
+    pub fn ray(&self, x: u32, y: u32, offset: Vec2) -> Ray {
+        let s = self.direction_f64(x, y, offset);
+        Ray::new(self.eye.as_vec3(), (s / s.length()).as_vec3())
+    }
+
+    /// The ray through the centre of pixel `(x, y)`: the lecture's one ray per pixel.
+    pub fn centre_ray(&self, x: u32, y: u32) -> Ray {
+        self.ray(x, y, Vec2::splat(0.5))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32) -> CameraSpec {
+        CameraSpec { eye, target, up, fov_deg }
+    }
+
+    #[test]
+    fn looking_down_minus_z_is_the_textbook_basis() {
+        let c = Camera::new(&spec(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0), 4, 2).unwrap();
+        assert_eq!(c.basis(), (Vec3::X, Vec3::Y, Vec3::Z));
+        let (l, r, b, t) = c.edges();
+        assert!((t - 1.0).abs() < 1e-15 && (b + 1.0).abs() < 1e-15);
+        assert!((r - 2.0).abs() < 1e-15 && (l + 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn errors_are_one_line_and_named() {
+        let ok = spec(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0);
+        let err = |s: CameraSpec, w: u32, h: u32| Camera::new(&s, w, h).unwrap_err().to_string();
+        assert!(err(CameraSpec { fov_deg: 180.0, ..ok }, 1, 1).contains("fov_deg 180"));
+        assert!(err(CameraSpec { fov_deg: 0.0, ..ok }, 1, 1).contains("fov_deg 0"));
+        assert!(err(CameraSpec { fov_deg: f32::NAN, ..ok }, 1, 1).contains("not finite"));
+        assert!(err(CameraSpec { eye: Vec3::new(f32::INFINITY, 0.0, 0.0), ..ok }, 1, 1).contains("eye"));
+        assert!(err(CameraSpec { up: Vec3::ZERO, ..ok }, 1, 1).contains("parallel"));
+        assert!(err(ok, 0, 3).contains("0×3"));
+        for e in [err(ok, 3, 0), err(CameraSpec { target: Vec3::Z, ..ok }, 1, 1)] {
+            assert!(e.starts_with("camera: ") && !e.contains('\n'), "{e}");
+        }
+    }
+}

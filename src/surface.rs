@@ -1,0 +1,90 @@
+//! What shading needs to know about a hit: the point, its normals, its material and albedo,
+//! reconstructed from the [`Hit`] and the scene data.
+//!
+//! On triangles this is the lecture's barycentric interpolation: with the hit's `u, v`,
+//! every per-vertex quantity `q` (position, normal, colour) becomes
+//! `q = (1 − u − v)·q0 + u·q1 + v·q2`. Spheres use their exact normal `(p − c)/r`, planes
+//! their `n`.
+//!
+//! Points are recomputed on the surface rather than taken as `org + t·dir`, whose rounding
+//! error grows with `t` and would let secondary rays start below the surface: triangles
+//! interpolate their corners, sphere points are projected back onto the sphere, plane points
+//! onto the plane.
+//!
+//! Normals: the geometric normal `ng` is the primitive's own (outward for spheres, the
+//! winding's `(p1 − p0) × (p2 − p0)` for triangles, the plane's `n`). The shading normal `ns`
+//! is first put on the same side as that outward `ng` (so meshes whose vertex normals
+//! disagree with their winding still shade), then both are flipped together towards the side
+//! the ray came from: whether a ray enters or leaves an object is decided by the geometric
+//! normal alone. Where an interpolated `ns` still faces away from the viewer (near
+//! silhouettes of coarse meshes) it is replaced by `ng`.
+
+use crate::accel::Hit;
+use crate::math::{Ray, Vec3};
+use crate::scene::{GeomKind, Scene};
+
+/// The shading data of one hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// The hit point, on the surface.
+    pub p: Vec3,
+    /// Unit geometric normal as the primitive defines it (not flipped).
+    pub ng_outward: Vec3,
+    /// Unit geometric normal on the side the ray arrived from (`ng · dir < 0`).
+    pub ng: Vec3,
+    /// Unit shading normal, on the same side as `ng` and facing the viewer.
+    pub ns: Vec3,
+    /// Whether the ray arrived on the side `ng_outward` points to, i.e. enters the object.
+    pub front_face: bool,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Diffuse albedo ρ here: the material's texture times the interpolated vertex colour.
+    pub albedo: Vec3,
+}
+
+/// `(1 − u − v)·q0 + u·q1 + v·q2`.
+#[inline]
+pub fn barycentric(q: [Vec3; 3], u: f32, v: f32) -> Vec3 {
+    (1.0 - u - v) * q[0] + u * q[1] + v * q[2]
+}
+
+impl SurfacePoint {
+    /// The shading data of `hit`, the closest hit of `ray` in `scene`.
+    ///
+    /// The hit's ids must name objects of `scene` and their materials must exist (the
+    /// integrator checks the scene before tracing).
+    pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
+        let prim = hit.prim_id as usize;
+        let (p, ng_outward, ns, colour, material) = match scene.geom_kind(hit.geom_id) {
+            GeomKind::Mesh(m) => {
+                let mesh = &scene.meshes[m as usize];
+                let idx = mesh.indices[prim].map(|i| i as usize);
+                let corners = idx.map(|i| mesh.positions[i]);
+                let p = barycentric(corners, hit.u, hit.v);
+                let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
+                let ns = mesh.normals.as_ref().map_or(Vec3::ZERO, |n| barycentric(idx.map(|i| n[i]), hit.u, hit.v));
+                let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), hit.u, hit.v));
+                (p, ng, ns.normalize_or_zero(), colour, mesh.material_of(prim))
+            }
+            GeomKind::Spheres => {
+                let s = &scene.spheres[prim];
+                let n = (ray.at(hit.t) - s.center).normalize_or_zero();
+                (s.center + s.radius * n, n, n, Vec3::ONE, s.material)
+            }
+            GeomKind::Planes => {
+                let pl = &scene.planes[prim];
+                let x = ray.at(hit.t);
+                (x - (pl.normal.dot(x) - pl.dist) * pl.normal, pl.normal, pl.normal, Vec3::ONE, pl.material)
+            }
+        };
+        // A degenerate triangle (zero area) has no normal of its own: face the ray.
+        let ng_outward = if ng_outward == Vec3::ZERO { -ray.dir.normalize() } else { ng_outward };
+        let ns = if ns == Vec3::ZERO { ng_outward } else { ns };
+        let ns = if ns.dot(ng_outward) < 0.0 { -ns } else { ns };
+        let front_face = ray.dir.dot(ng_outward) < 0.0;
+        let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
+        let ns = if ns.dot(ray.dir) >= 0.0 { ng } else { ns };
+        let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward) * colour;
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo }
+    }
+}
