@@ -164,7 +164,9 @@ impl<'p> Reader<'p> {
                 let p = match values.len() {
                     3 | 4 | 6 | 7 => Vec3::new(values[0], values[1], values[2]),
                     n => {
-                        return Err(at(format!("a vertex has 3 coordinates, optionally w or r g b; found {n} numbers")));
+                        return Err(at(format!(
+                            "a vertex has 3 coordinates, optionally w or r g b; found {n} numbers"
+                        )));
                     }
                 };
                 if !p.is_finite() {

@@ -24,6 +24,7 @@ use super::polygon;
 use super::text::{self, parse_f32, parse_i64, show};
 use crate::material::Material;
 use crate::math::{Vec2, Vec3};
+use crate::scene::Mesh;
 
 /// A PLY scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -447,6 +448,47 @@ fn push_face(faces: &mut Faces, indices: &[i64], n_vertices: usize, line: usize)
     Ok(())
 }
 
+/// A cursor over an ASCII body: tokens within a line, lines counted as it goes.
+struct Scan<'a> {
+    data: &'a [u8],
+    pos: usize,
+    line: usize,
+}
+
+impl<'a> Scan<'a> {
+    /// Moves to the first token of the next non-blank line; `false` at the end of the data.
+    fn next_line(&mut self) -> bool {
+        while let Some(&b) = self.data.get(self.pos) {
+            match b {
+                b'\n' => self.line += 1,
+                b' ' | b'\t' | b'\r' | 0x0b | 0x0c => {}
+                _ => return true,
+            }
+            self.pos += 1;
+        }
+        false
+    }
+
+    /// The next token on the current line, `None` at its end.
+    #[inline]
+    fn token(&mut self) -> Option<&'a [u8]> {
+        while let Some(&b) = self.data.get(self.pos) {
+            if !matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c) {
+                break;
+            }
+            self.pos += 1;
+        }
+        let start = self.pos;
+        while let Some(&b) = self.data.get(self.pos) {
+            if b.is_ascii_whitespace() {
+                break;
+            }
+            self.pos += 1;
+        }
+        (self.pos > start).then(|| &self.data[start..self.pos])
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn read_ascii(
     path: &Path,
@@ -458,9 +500,7 @@ fn read_ascii(
     vertices: &mut Vertices,
     faces: &mut Faces,
 ) -> Result<(), MeshError> {
-    let offset = header.body_line - 1;
-    let mut lines = text::lines(body).map(|(n, l)| (n + offset, l)).filter(|(_, l)| !text::trim(l).is_empty());
-    let mut last_line = offset;
+    let mut scan = Scan { data: body, pos: 0, line: header.body_line };
     let mut values = Vec::new();
     let mut corners = Vec::new();
     for e in &header.elements {
@@ -475,34 +515,34 @@ fn read_ascii(
             faces.corners.reserve(3 * e.count.min(body.len() / 6));
         }
         for i in 0..e.count {
-            let Some((line_no, line)) = lines.next() else {
+            if !scan.next_line() {
                 return Err(MeshError::at(
                     path,
-                    last_line + 1,
+                    scan.line,
                     format!("the file ends after {i} of {} {}", e.count, plural(&e.name)),
                 ));
-            };
-            last_line = line_no;
+            }
+            let line_no = scan.line;
+            let at = |problem: String| MeshError::at(path, line_no, problem);
+            let missing =
+                |what: &str| at(format!("missing {what}: the line has fewer values than the header declares"));
             if !is_vertex && !is_face {
+                while scan.token().is_some() {}
                 continue;
             }
-            let at = |problem: String| MeshError::at(path, line_no, problem);
-            let mut words = text::tokens(line);
-            let mut next = |what: &str| words.next().ok_or_else(|| at(format!("missing {what}")));
             if is_vertex {
                 values.clear();
                 for p in &e.properties {
+                    let w = scan.token().ok_or_else(|| missing(&p.name))?;
                     match p.kind {
                         Kind::Scalar(s) => {
-                            let w = next(&p.name)?;
                             let v = if s.is_float() { parse_f32(w) } else { parse_i64(w).map(|i| i as f32) };
                             values.push(v.ok_or_else(|| at(format!("'{}' is not a {s:?} for {}", show(w), p.name)))?);
                         }
                         Kind::List { .. } => {
-                            let w = next(&p.name)?;
                             let n = parse_i64(w).filter(|&n| n >= 0).ok_or_else(|| at(bad_count(w)))?;
                             for _ in 0..n {
-                                next(&p.name)?;
+                                scan.token().ok_or_else(|| missing(&p.name))?;
                             }
                             values.push(0.0);
                         }
@@ -513,31 +553,25 @@ fn read_ascii(
                 }
             } else {
                 for (k, p) in e.properties.iter().enumerate() {
-                    match p.kind {
-                        Kind::Scalar(_) => {
-                            next(&p.name)?;
+                    let w = scan.token().ok_or_else(|| missing(&p.name))?;
+                    let Kind::List { item, .. } = p.kind else { continue };
+                    let n = parse_i64(w).filter(|&n| n >= 0).ok_or_else(|| at(bad_count(w)))? as usize;
+                    if Some(k) == face_list {
+                        corners.clear();
+                        for _ in 0..n {
+                            let w = scan.token().ok_or_else(|| missing("face index"))?;
+                            let v = if item.is_float() { None } else { parse_i64(w) };
+                            corners.push(v.ok_or_else(|| at(format!("'{}' is not a face index", show(w))))?);
                         }
-                        Kind::List { item, .. } => {
-                            let w = next(&p.name)?;
-                            let n = parse_i64(w).filter(|&n| n >= 0).ok_or_else(|| at(bad_count(w)))? as usize;
-                            if Some(k) == face_list {
-                                corners.clear();
-                                for _ in 0..n {
-                                    let w = next("face index")?;
-                                    let v = if item.is_float() { None } else { parse_i64(w) };
-                                    corners.push(v.ok_or_else(|| at(format!("'{}' is not a face index", show(w))))?);
-                                }
-                                push_face(faces, &corners, n_vertices, line_no).map_err(at)?;
-                            } else {
-                                for _ in 0..n {
-                                    next(&p.name)?;
-                                }
-                            }
+                        push_face(faces, &corners, n_vertices, line_no).map_err(at)?;
+                    } else {
+                        for _ in 0..n {
+                            scan.token().ok_or_else(|| missing(&p.name))?;
                         }
                     }
                 }
             }
-            if let Some(extra) = words.next() {
+            if let Some(extra) = scan.token() {
                 return Err(at(format!(
                     "more values than the header declares for a {} ('{}')",
                     if is_vertex { "vertex" } else { "face" },
@@ -687,6 +721,28 @@ fn list_count(bin: &mut Binary, count: Scalar) -> Option<usize> {
     if n < 0.0 { None } else { Some(n as usize) }
 }
 
+/// Writes `mesh` as an ASCII PLY: positions, normals when it has them (six decimals, so the
+/// text is the same wherever the numbers were computed to within rounding), and triangles.
+pub fn write_ascii(mesh: &Mesh, out: &mut impl std::io::Write, comment: &str) -> std::io::Result<()> {
+    writeln!(out, "ply\nformat ascii 1.0\ncomment {comment}\nelement vertex {}", mesh.positions.len())?;
+    writeln!(out, "property float x\nproperty float y\nproperty float z")?;
+    if mesh.normals.is_some() {
+        writeln!(out, "property float nx\nproperty float ny\nproperty float nz")?;
+    }
+    writeln!(out, "element face {}\nproperty list uchar uint vertex_indices\nend_header", mesh.indices.len())?;
+    for (i, p) in mesh.positions.iter().enumerate() {
+        write!(out, "{:.6} {:.6} {:.6}", p.x, p.y, p.z)?;
+        if let Some(n) = &mesh.normals {
+            write!(out, " {:.6} {:.6} {:.6}", n[i].x, n[i].y, n[i].z)?;
+        }
+        writeln!(out)?;
+    }
+    for [a, b, c] in &mesh.indices {
+        writeln!(out, "3 {a} {b} {c}")?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -724,7 +780,7 @@ mod tests {
         let e = load(&QUAD.replace("4 0 1 2 3", "2 0 1")).unwrap_err();
         assert_eq!(e.to_string(), "t.ply:17: face has 2 vertices (a polygon needs at least 3)");
         let e = load(&QUAD.replace("4 0 1 2 3", "4 0 1 2")).unwrap_err();
-        assert_eq!(e.to_string(), "t.ply:17: missing face index");
+        assert_eq!(e.to_string(), "t.ply:17: missing face index: the line has fewer values than the header declares");
     }
 
     #[test]

@@ -102,21 +102,24 @@ fn parse_std(token: &[u8]) -> Option<f32> {
 }
 
 /// Parses an optionally signed decimal integer; `None` on anything else or on overflow.
+#[inline]
 pub(crate) fn parse_i64(token: &[u8]) -> Option<i64> {
     let (negative, digits) = match token.first()? {
         b'-' => (true, &token[1..]),
         b'+' => (false, &token[1..]),
         _ => (false, token),
     };
-    if digits.is_empty() {
-        return None;
+    // Up to 18 digits cannot overflow an i64: no checks inside the loop.
+    if digits.is_empty() || digits.len() > 18 {
+        return if digits.len() > 18 { std::str::from_utf8(token).ok()?.parse().ok() } else { None };
     }
     let mut value: i64 = 0;
     for &d in digits {
-        if !d.is_ascii_digit() {
+        let digit = d.wrapping_sub(b'0');
+        if digit > 9 {
             return None;
         }
-        value = value.checked_mul(10)?.checked_add((d - b'0') as i64)?;
+        value = value * 10 + digit as i64;
     }
     Some(if negative { -value } else { value })
 }
@@ -176,6 +179,9 @@ mod tests {
         assert_eq!(parse_i64(b"+7"), Some(7));
         assert_eq!(parse_i64(b"1.0"), None);
         assert_eq!(parse_i64(b"99999999999999999999"), None);
+        assert_eq!(parse_i64(b"-9223372036854775808"), Some(i64::MIN));
+        assert_eq!(parse_i64(b"0000000000000000000000007"), Some(7));
+        assert_eq!(parse_i64(b"12a"), None);
         assert_eq!(parse_i64(b"-"), None);
     }
 
