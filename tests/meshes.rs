@@ -353,6 +353,41 @@ fn vertex_colours_and_normals_of_an_obj_cube() {
     assert_eq!(a.meshes[0].indices, b.meshes[0].indices);
 }
 
+#[test]
+fn ply_vertex_attributes() {
+    let Some(root) = data_dir() else { return };
+    let mesh = |name: &str| load(&root.join(name)).unwrap().meshes.remove(0);
+    // Float colours taken as they are, alpha ignored.
+    assert_eq!(mesh("edge-cases/assimp-ply/float-color.ply").colors.unwrap(), vec![Vec3::Z; 3]);
+    // uchar colours scaled to 0–1: the first four vertices red, the last four blue.
+    let c = mesh("edge-cases/ply-rs/greg_turk_example2_ok_ascii.ply").colors.unwrap();
+    assert_eq!((c[0], c[7]), (Vec3::X, Vec3::Z));
+    // `s t` texture coordinates and normals (Blender).
+    let m = mesh("edge-cases/assimp-ply/cube_uv.ply");
+    assert_eq!((m.uvs.as_ref().map(Vec::len), m.normals.as_ref().map(Vec::len)), (Some(24), Some(24)));
+    assert!(m.uvs.unwrap().iter().all(|uv| (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y)));
+    // Binary little endian from VTK, and CRLF ASCII.
+    assert_eq!(mesh("edge-cases/pyvista/sphere.ply").positions.len(), 422);
+    assert_eq!(mesh("edge-cases/pyvista/airplane.ply").indices.len(), 2452);
+}
+
+#[test]
+fn gzip_compressed_obj_reads_like_the_plain_file() {
+    use std::io::Write;
+    let dir = temp_dir("gz");
+    let text = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl red\nf 1 2 3 4\n";
+    write(&dir, "m.mtl", b"newmtl red\nKd 1 0 0\n");
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all(text.as_bytes()).unwrap();
+    let packed = write(&dir, "quad.obj.gz", &gz.finish().unwrap());
+    let plain = write(&dir, "quad.obj", text.as_bytes());
+    let (a, b) = (load(&packed).unwrap(), load(&plain).unwrap());
+    assert_eq!(a.meshes[0].indices, vec![[0, 1, 2], [0, 2, 3]]);
+    assert_eq!((a.meshes[0].positions.clone(), a.materials.clone()), (b.meshes[0].positions.clone(), b.materials));
+    assert_eq!(a.materials[0].diffuse, Texture::Constant(Vec3::X));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A folder of its own under the system's temporary directory.
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("strahl-meshes-{}-{name}", std::process::id()));

@@ -162,6 +162,9 @@ fn parse_header(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result<
                     .and_then(|c| usize::try_from(c).ok())
                     .ok_or_else(|| at(format!("element count '{}' is not a number ≥ 0", show(count))))?;
                 let name = String::from_utf8_lossy(name).into_owned();
+                if elements.iter().any(|e| e.name == name) {
+                    return Err(at(format!("element '{name}' declared twice")));
+                }
                 elements.push(Element { name, count, properties: Vec::new(), line: line_no });
             }
             b"property" => {
@@ -779,6 +782,8 @@ mod tests {
         assert_eq!(e.to_string(), "t.ply:14: more values than the header declares for a vertex ('7')");
         let e = load(&QUAD.replace("4 0 1 2 3", "2 0 1")).unwrap_err();
         assert_eq!(e.to_string(), "t.ply:17: face has 2 vertices (a polygon needs at least 3)");
+        let e = load(&QUAD.replace("element face 1", "element vertex 1\nproperty float x")).unwrap_err();
+        assert_eq!(e.to_string(), "t.ply:10: element 'vertex' declared twice");
         let e = load(&QUAD.replace("4 0 1 2 3", "4 0 1 2")).unwrap_err();
         assert_eq!(e.to_string(), "t.ply:17: missing face index: the line has fewer values than the header declares");
     }
