@@ -388,6 +388,55 @@ fn gzip_compressed_obj_reads_like_the_plain_file() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+#[test]
+fn mutated_real_files_never_panic() {
+    use rand::{Rng, SeedableRng};
+    let Some(root) = data_dir() else { return };
+    let files = [
+        "edge-cases/assimp-obj/cube_usemtl.obj",
+        "edge-cases/obj-rs/textured-cube.obj",
+        "cornell/CornellBox-Original.mtl",
+        "edge-cases/assimp-ply/cube_binary.ply",
+        "edge-cases/ply-rs/greg_turk_example2_ok_ascii.ply",
+        "edge-cases/ply-rs/house_2_ok_little_endian.ply",
+        "edge-cases/pyvista/ant.ply",
+    ];
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(17);
+    let options = MeshOptions { smooth_normals: true };
+    for name in files {
+        let original = std::fs::read(root.join(name)).unwrap();
+        let path = Path::new("/nonexistent/strahl-fuzz").join(name);
+        for _ in 0..1500 {
+            let mut d = original.clone();
+            for _ in 0..rng.random_range(1..8) {
+                let i = rng.random_range(0..d.len());
+                match rng.random_range(0..4) {
+                    0 => d[i] = rng.random(),
+                    1 => {
+                        let alphabet = b" \n-0123456789/.e#f";
+                        d[i] = alphabet[rng.random_range(0..alphabet.len())];
+                    }
+                    2 => {
+                        d.remove(i);
+                    }
+                    _ => d.insert(i, rng.random()),
+                }
+            }
+            d.truncate(rng.random_range(d.len() / 2..=d.len()));
+            let result = std::panic::catch_unwind(|| {
+                if name.ends_with(".ply") {
+                    let _ = ply::parse(&path, &d, &options);
+                } else if name.ends_with(".mtl") {
+                    let _ = strahl::io::obj::parse_mtl(&path, &d, &mut Vec::new());
+                } else {
+                    let _ = strahl::io::obj::parse(&path, &d, &options);
+                }
+            });
+            assert!(result.is_ok(), "{name} mutated to {:?} panicked", String::from_utf8_lossy(&d));
+        }
+    }
+}
+
 /// A folder of its own under the system's temporary directory.
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("strahl-meshes-{}-{name}", std::process::id()));
