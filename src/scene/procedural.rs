@@ -80,6 +80,20 @@ pub fn icosphere(subdivisions: u32) -> Mesh {
     }
 }
 
+/// A lumpy ball for the shipped scenes: `icosphere(subdivisions)` with each vertex moved along
+/// its direction by `0.12 · sin 6x · sin(5y + 0.5) · sin(4z + 1)` (radius 0.88–1.12), with
+/// area-weighted smooth normals.
+pub fn blob(subdivisions: u32) -> Mesh {
+    let mut m = icosphere(subdivisions);
+    for p in &mut m.positions {
+        let bump = 0.12 * (6.0 * p.x).sin() * (5.0 * p.y + 0.5).sin() * (4.0 * p.z + 1.0).sin();
+        *p *= 1.0 + bump;
+    }
+    m.normals = Some(crate::io::mesh::smooth_normals(&m.positions, &m.indices));
+    m.name = format!("blob{subdivisions}");
+    m
+}
+
 fn uniform_in(rng: &mut Pcg64Mcg, b: &Aabb) -> Vec3 {
     Vec3::new(
         rng.random_range(b.min.x..=b.max.x),

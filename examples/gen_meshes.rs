@@ -1,0 +1,16 @@
+//! Writes the meshes strahl makes itself for the shipped scenes into scenes/meshes/:
+//! `cargo run --example gen_meshes`. tests/meshes.rs checks the committed files are current.
+
+use std::path::Path;
+
+fn main() -> std::io::Result<()> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes");
+    std::fs::create_dir_all(&dir)?;
+    let path = dir.join("blob.ply");
+    let mut out = Vec::new();
+    let mesh = strahl::scene::procedural::blob(4);
+    strahl::io::ply::write_ascii(&mesh, &mut out, "strahl examples/gen_meshes.rs: procedural::blob(4)")?;
+    std::fs::write(&path, out)?;
+    println!("wrote {} ({} triangles, {} vertices)", path.display(), mesh.indices.len(), mesh.positions.len());
+    Ok(())
+}

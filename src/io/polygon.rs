@@ -1,0 +1,307 @@
+//! Triangulation of one polygonal face (OBJ `f`, PLY `vertex_indices` with more than three
+//! corners) in the polygon's own plane: triangles and convex quads directly, everything else by
+//! ear clipping (`earcutr`, the Rust port of Mapbox's earcut) after projecting the corners onto
+//! the coordinate plane most parallel to the polygon (the one its Newell normal is most
+//! perpendicular to). Output triangles keep the face's winding, so their normals point the way
+//! the file's polygon does.
+//!
+//! Ear clipping a simple polygon covers exactly its area. A polygon that crosses or overlaps
+//! itself has no such triangulation; it is detected by comparing the triangles' total area with
+//! the polygon's shoelace area, and refused.
+
+use crate::math::Vec3;
+
+/// Why a face could not be triangulated: its outline is not a simple polygon.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PolygonError {
+    /// Edges `a` and `b` (edge i runs from corner i to corner i + 1) cross.
+    Crossing { a: usize, b: usize },
+    /// The outline winds around some of its inside more than once: ear clipping covers
+    /// `covered` where the outline's signed area says `enclosed`, or `enclosed` exceeds the
+    /// outline's bounding box (areas in the projection plane's units²).
+    Overlapping { covered: f64, enclosed: f64 },
+}
+
+impl std::fmt::Display for PolygonError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PolygonError::Crossing { a, b } => {
+                write!(f, "face is not a simple polygon: its edges {} and {} cross", a + 1, b + 1)
+            }
+            PolygonError::Overlapping { covered, enclosed } => write!(
+                f,
+                "face is not a simple polygon: its outline overlaps itself (triangles cover {covered:.6}, \
+                 the outline's signed area is {enclosed:.6})"
+            ),
+        }
+    }
+}
+
+/// Polygons up to this many corners are checked for crossing edges (O(n²)); larger ones only
+/// by their area.
+const CROSSING_CHECK_MAX: usize = 2048;
+
+/// The first pair of non-adjacent edges that properly cross (each passes strictly through the
+/// other's line), if any. Edges that touch at a corner or run along each other do not count:
+/// a polygon with a hole joined by a bridge edge traversed both ways is fine.
+fn crossing(points: &[[f64; 2]]) -> Option<(usize, usize)> {
+    let n = points.len();
+    let edge = |i: usize| (points[i], points[(i + 1) % n]);
+    for i in 0..n {
+        let (p, q) = edge(i);
+        let (lo_x, hi_x) = (p[0].min(q[0]), p[0].max(q[0]));
+        for j in i + 2..n {
+            if i == 0 && j == n - 1 {
+                continue;
+            }
+            let (r, s) = edge(j);
+            if r[0].max(s[0]) < lo_x || r[0].min(s[0]) > hi_x {
+                continue;
+            }
+            let (d1, d2) = (cross2(p, q, r), cross2(p, q, s));
+            let (d3, d4) = (cross2(r, s, p), cross2(r, s, q));
+            if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+                return Some((i, j));
+            }
+        }
+    }
+    None
+}
+
+/// The polygon's Newell normal: its direction is the face normal by the right-hand rule, its
+/// length twice the (vector) area. Exact for planar polygons, a best fit for others.
+pub fn newell_normal(corners: &[Vec3]) -> glam::DVec3 {
+    let n = corners.len();
+    let mut normal = glam::DVec3::ZERO;
+    let origin = corners[0].as_dvec3();
+    for i in 0..n {
+        let a = corners[i].as_dvec3() - origin;
+        let b = corners[(i + 1) % n].as_dvec3() - origin;
+        normal += a.cross(b);
+    }
+    normal
+}
+
+/// Projects the corners onto the coordinate plane most perpendicular to `normal`, keeping the
+/// orientation: a counter-clockwise outline seen from the side `normal` points to stays
+/// counter-clockwise (positive signed area).
+pub fn project(corners: &[Vec3], normal: glam::DVec3) -> Vec<[f64; 2]> {
+    let a = normal.abs();
+    let origin = corners[0].as_dvec3();
+    let (axis, flip) = if a.z >= a.x && a.z >= a.y {
+        (2, normal.z < 0.0)
+    } else if a.x >= a.y {
+        (0, normal.x < 0.0)
+    } else {
+        (1, normal.y < 0.0)
+    };
+    corners
+        .iter()
+        .map(|c| {
+            let p = c.as_dvec3() - origin;
+            let (u, v) = match axis {
+                2 => (p.x, p.y),
+                0 => (p.y, p.z),
+                _ => (p.z, p.x),
+            };
+            if flip { [v, u] } else { [u, v] }
+        })
+        .collect()
+}
+
+/// Twice the signed area of the 2-D triangle `a b c` (positive when counter-clockwise).
+fn cross2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+}
+
+/// Twice the signed (shoelace) area of a 2-D polygon.
+pub fn shoelace(points: &[[f64; 2]]) -> f64 {
+    let n = points.len();
+    (0..n).map(|i| points[i][0] * points[(i + 1) % n][1] - points[(i + 1) % n][0] * points[i][1]).sum()
+}
+
+/// Triangulates the polygon `corners` (at least three), appending index triples into `corners`
+/// to `out` with the polygon's winding. Emits at most `corners.len() − 2` triangles; fewer when
+/// ear clipping removes collinear or repeated corners (the missing triangles have zero area).
+/// Triangles of zero area may be among those emitted: the caller drops and counts them.
+pub fn triangulate(corners: &[Vec3], out: &mut Vec<[u32; 3]>) -> Result<(), PolygonError> {
+    let n = corners.len();
+    debug_assert!(n >= 3);
+    if n == 3 {
+        out.push([0, 1, 2]);
+        return Ok(());
+    }
+    let mut normal = newell_normal(corners);
+    if !(normal.length_squared() > 0.0) {
+        // Zero net area: a figure eight whose lobes cancel, or all corners on one line. The
+        // largest fan triangle's normal gives a plane, if there is one.
+        let c0 = corners[0].as_dvec3();
+        normal = (1..n - 1)
+            .map(|i| (corners[i].as_dvec3() - c0).cross(corners[i + 1].as_dvec3() - c0))
+            .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
+            .unwrap_or(glam::DVec3::ZERO);
+        if !(normal.length_squared() > 0.0) {
+            // All corners on one line (or one point): every triangle has zero area.
+            out.extend((1..n as u32 - 1).map(|i| [0, i, i + 1]));
+            return Ok(());
+        }
+    }
+    let points = project(corners, normal);
+    if n == 4 && (0..4).all(|i| cross2(points[i], points[(i + 1) % 4], points[(i + 2) % 4]) > 0.0) {
+        // A convex quad, the common case: a fan is exact.
+        out.extend([[0, 1, 2], [0, 2, 3]]);
+        return Ok(());
+    }
+    if n <= CROSSING_CHECK_MAX {
+        if let Some((a, b)) = crossing(&points) {
+            return Err(PolygonError::Crossing { a, b });
+        }
+    }
+    let flat: Vec<f64> = points.iter().flat_map(|p| *p).collect();
+    let enclosed = shoelace(&points).abs() / 2.0;
+    let ears = earcutr::earcut(&flat, &[], 2).map_err(|_| PolygonError::Overlapping { covered: f64::NAN, enclosed })?;
+    let mut covered = 0.0;
+    let start = out.len();
+    for t in ears.chunks_exact(3) {
+        let (a, b, c) = (t[0], t[1], t[2]);
+        let area = cross2(points[a], points[b], points[c]);
+        covered += area.abs() / 2.0;
+        // Keep the polygon's winding (its projection is counter-clockwise).
+        out.push(if area < 0.0 { [a as u32, c as u32, b as u32] } else { [a as u32, b as u32, c as u32] });
+    }
+    let extent = points.iter().fold([f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY], |e, p| {
+        [e[0].min(p[0]), e[1].max(p[0]), e[2].min(p[1]), e[3].max(p[1])]
+    });
+    let box_area = (extent[1] - extent[0]) * (extent[3] - extent[2]);
+    let tolerance = 1e-6 * box_area + 1e-9 * covered.max(enclosed);
+    if (covered - enclosed).abs() > tolerance || enclosed > box_area + tolerance {
+        out.truncate(start);
+        return Err(PolygonError::Overlapping { covered, enclosed });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn area3(c: &[Vec3], t: [u32; 3]) -> f64 {
+        let [a, b, d] = t.map(|i| c[i as usize].as_dvec3());
+        (b - a).cross(d - a).length() / 2.0
+    }
+
+    #[test]
+    fn convex_quad_is_a_fan_with_the_faces_winding() {
+        let c = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let mut out = vec![];
+        triangulate(&c, &mut out).unwrap();
+        assert_eq!(out, vec![[0, 1, 2], [0, 2, 3]]);
+        // The same quad seen from below (clockwise in xy): still the face's own winding.
+        let r = [c[0], c[3], c[2], c[1]];
+        let mut out = vec![];
+        triangulate(&r, &mut out).unwrap();
+        for t in &out {
+            let [a, b, d] = t.map(|i| r[i as usize]);
+            assert!((b - a).cross(d - a).z < 0.0);
+        }
+    }
+
+    #[test]
+    fn concave_l_shape_covers_its_area_in_any_plane() {
+        // An L of area 3 in the xy plane, then the same rotated into a tilted plane.
+        let l = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)];
+        let rot = glam::Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 1.1);
+        for q in [glam::Quat::IDENTITY, rot] {
+            let c: Vec<Vec3> = l.iter().map(|&(x, y)| q * Vec3::new(x, y, 0.0)).collect();
+            let mut out = vec![];
+            triangulate(&c, &mut out).unwrap();
+            assert_eq!(out.len(), 4);
+            let total: f64 = out.iter().map(|&t| area3(&c, t)).sum();
+            assert!((total - 3.0).abs() < 1e-5, "{total}");
+            let n = q * Vec3::Z;
+            for &t in &out {
+                let [a, b, d] = t.map(|i| c[i as usize]);
+                assert!((b - a).cross(d - a).dot(n) > 0.0, "winding kept");
+            }
+        }
+    }
+
+    #[test]
+    fn self_overlapping_outline_is_refused() {
+        // A square traversed three times (assimp's box_longline.obj does this 234 times).
+        let sq = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        for k in [2, 3, 234] {
+            let c: Vec<Vec3> = sq.iter().cycle().take(4 * k).copied().collect();
+            assert!(matches!(triangulate(&c, &mut vec![]), Err(PolygonError::Overlapping { .. })), "{k}");
+        }
+        // A bow tie, and a pentagram.
+        let bow = [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::X, Vec3::Y];
+        assert_eq!(triangulate(&bow, &mut vec![]), Err(PolygonError::Crossing { a: 0, b: 2 }));
+        let star: Vec<Vec3> = (0..5)
+            .map(|i| {
+                let phi = std::f32::consts::TAU * (2 * i) as f32 / 5.0;
+                Vec3::new(phi.cos(), phi.sin(), 0.0)
+            })
+            .collect();
+        assert!(matches!(triangulate(&star, &mut vec![]), Err(PolygonError::Crossing { .. })));
+        // A square with a square hole joined by a bridge traversed both ways is fine: area 3.
+        let p = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        let bridged = [
+            p(0.0, 0.0),
+            p(2.0, 0.0),
+            p(2.0, 2.0),
+            p(0.0, 2.0),
+            p(0.0, 0.0),
+            p(0.5, 0.5),
+            p(0.5, 1.5),
+            p(1.5, 1.5),
+            p(1.5, 0.5),
+            p(0.5, 0.5),
+        ];
+        let mut out = vec![];
+        triangulate(&bridged, &mut out).unwrap();
+        let total: f64 = out.iter().map(|&t| area3(&bridged, t)).sum();
+        assert!((total - 3.0).abs() < 1e-6, "{total}");
+    }
+
+    #[test]
+    fn collinear_corners_give_at_most_n_minus_2_triangles() {
+        let line: Vec<Vec3> = (0..5).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect();
+        let mut out = vec![];
+        triangulate(&line, &mut out).unwrap();
+        assert_eq!(out.len(), 3);
+        // A square with a corner repeated and a midpoint on an edge.
+        let c = [Vec3::ZERO, Vec3::X, Vec3::X, Vec3::new(1.0, 0.5, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let mut out = vec![];
+        triangulate(&c, &mut out).unwrap();
+        assert!(out.len() <= 4);
+        let total: f64 = out.iter().map(|&t| area3(&c, t)).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn random_star_polygons_never_panic_and_cover_their_area() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        for _ in 0..2000 {
+            let n = rng.random_range(3..40);
+            // Star-shaped about the origin: simple, usually concave.
+            let c: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let phi = std::f32::consts::TAU * (i as f32 + rng.random_range(0.0..0.9)) / n as f32;
+                    let r = rng.random_range(0.2..1.0);
+                    Vec3::new(r * phi.cos(), r * phi.sin(), 0.0)
+                })
+                .collect();
+            let mut out = vec![];
+            triangulate(&c, &mut out).unwrap();
+            let pts = project(&c, newell_normal(&c));
+            let total: f64 = out.iter().map(|&t| area3(&c, t)).sum();
+            assert!((total - shoelace(&pts).abs() / 2.0).abs() < 1e-5);
+            // Garbage never panics.
+            let g: Vec<Vec3> =
+                (0..n).map(|_| Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0)).collect();
+            let _ = triangulate(&g, &mut vec![]);
+        }
+    }
+}
