@@ -84,8 +84,7 @@ impl SoA {
 pub(crate) unsafe extern "C" fn bounds(args: *const sys::RTCBoundsFunctionArguments) {
     // SAFETY: Embree passes valid arguments for the duration of the call; the user pointer is
     // the `SphereSet` the scene owns, alive until the scene is released.
-    let args = unsafe { &*args };
-    let set = unsafe { &*(args.geometryUserPtr as *const SphereSet) };
+    let (args, set) = unsafe { (&*args, &*((*args).geometryUserPtr as *const SphereSet)) };
     let result = catch_unwind(AssertUnwindSafe(|| {
         let s = set.spheres[args.primID as usize];
         // Pad by a few ulps so that rounding in the box test can never cull a ray the
@@ -112,47 +111,34 @@ pub(crate) unsafe extern "C" fn bounds(args: *const sys::RTCBoundsFunctionArgume
     }
 }
 
-pub(crate) unsafe extern "C" fn intersect(args: *const sys::RTCIntersectFunctionNArguments) {
-    // SAFETY: as in `bounds`; `context` is the `QueryContext` every strahl query passes (it
-    // begins with Embree's context, and Embree hands the same pointer to callbacks).
-    let args = unsafe { &*args };
-    let set = unsafe { &*(args.geometryUserPtr as *const SphereSet) };
-    let ctx = unsafe { &*(args.context as *const QueryContext) };
-    let rays = SoA { words: args.rayhit as *mut u32, n: args.N as usize };
+/// Runs `hit(lane, org, dir, tnear, tfar)` for every active lane of a packet, inside a panic
+/// guard: a panic is recorded in the query context instead of unwinding into Embree.
+///
+/// # Safety
+/// `valid` must hold `rays.n` entries and `rays` must be the `RTCRayN` (or `RTCRayHitN`) that
+/// Embree passed with it.
+unsafe fn for_each_active_lane(
+    valid: *const i32,
+    rays: &SoA,
+    ctx: &QueryContext,
+    set: &SphereSet,
+    callback: &str,
+    mut hit: impl FnMut(usize, Vec3, Vec3, f32, f32),
+) {
     let result = catch_unwind(AssertUnwindSafe(|| {
         if set.panic_in_callbacks {
-            panic!("test hook: sphere intersect callback");
+            panic!("test hook: sphere {callback} callback");
         }
-        let s = set.spheres[args.primID as usize];
         for lane in 0..rays.n {
-            // SAFETY: `valid` has N entries; lanes and fields below are inside RTCRayHitN.
-            if unsafe { *args.valid.add(lane) } != -1 {
+            // SAFETY: `valid` has N entries and the ray fields lie inside the SoA structure,
+            // as the caller guarantees.
+            if unsafe { *valid.add(lane) } != -1 {
                 continue;
             }
             let (org, dir, tnear, tfar) = unsafe {
                 (rays.vec3(ORG_X, lane), rays.vec3(DIR_X, lane), rays.f32(TNEAR, lane), rays.f32(TFAR, lane))
             };
-            let Some(t) = sphere::intersect(org, dir, s.center, s.radius, tnear, tfar) else {
-                continue;
-            };
-            let ng = (org - s.center) + t * dir;
-            let (u, v) = sphere::uv(ng / s.radius);
-            // SAFETY: writing this lane's hit, inside RTCRayHitN.
-            unsafe {
-                rays.set_f32(TFAR, lane, t);
-                rays.set_f32(HIT + NG_X, lane, ng.x);
-                rays.set_f32(HIT + NG_X + 1, lane, ng.y);
-                rays.set_f32(HIT + NG_X + 2, lane, ng.z);
-                rays.set_f32(HIT + U, lane, u);
-                rays.set_f32(HIT + V, lane, v);
-                rays.set_u32(HIT + PRIM_ID, lane, args.primID);
-                rays.set_u32(HIT + GEOM_ID, lane, args.geomID);
-                for level in 0..sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize {
-                    rays.set_u32(HIT + INST_ID + level, lane, ctx.inst_id(level));
-                    #[cfg(embree_inst_prim_id)]
-                    rays.set_u32(HIT + INST_PRIM_ID + level, lane, ctx.inst_prim_id(level));
-                }
-            }
+            hit(lane, org, dir, tnear, tfar);
         }
     }));
     if let Err(payload) = result {
@@ -160,32 +146,59 @@ pub(crate) unsafe extern "C" fn intersect(args: *const sys::RTCIntersectFunction
     }
 }
 
+pub(crate) unsafe extern "C" fn intersect(args: *const sys::RTCIntersectFunctionNArguments) {
+    // SAFETY: as in `bounds`; `context` is the `QueryContext` every strahl query passes (it
+    // begins with Embree's context, and Embree hands the same pointer to callbacks).
+    let (args, set, ctx) = unsafe {
+        let a = &*args;
+        (a, &*(a.geometryUserPtr as *const SphereSet), &*(a.context as *const QueryContext))
+    };
+    let rays = SoA { words: args.rayhit as *mut u32, n: args.N as usize };
+    let (prim_id, geom_id) = (args.primID, args.geomID);
+    let record_hit = |lane: usize, org: Vec3, dir: Vec3, tnear: f32, tfar: f32| {
+        let s = set.spheres[prim_id as usize];
+        let Some(t) = sphere::intersect(org, dir, s.center, s.radius, tnear, tfar) else {
+            return;
+        };
+        let ng = (org - s.center) + t * dir;
+        let (u, v) = sphere::uv(ng / s.radius);
+        // SAFETY: writing this active lane's hit, inside RTCRayHitN.
+        unsafe {
+            rays.set_f32(TFAR, lane, t);
+            rays.set_f32(HIT + NG_X, lane, ng.x);
+            rays.set_f32(HIT + NG_X + 1, lane, ng.y);
+            rays.set_f32(HIT + NG_X + 2, lane, ng.z);
+            rays.set_f32(HIT + U, lane, u);
+            rays.set_f32(HIT + V, lane, v);
+            rays.set_u32(HIT + PRIM_ID, lane, prim_id);
+            rays.set_u32(HIT + GEOM_ID, lane, geom_id);
+            for level in 0..sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize {
+                rays.set_u32(HIT + INST_ID + level, lane, ctx.inst_id(level));
+                #[cfg(embree_inst_prim_id)]
+                rays.set_u32(HIT + INST_PRIM_ID + level, lane, ctx.inst_prim_id(level));
+            }
+        }
+    };
+    // SAFETY: `valid` and `rayhit` are the N-wide arrays Embree passed together.
+    unsafe { for_each_active_lane(args.valid, &rays, ctx, set, "intersect", record_hit) };
+}
+
 pub(crate) unsafe extern "C" fn occluded(args: *const sys::RTCOccludedFunctionNArguments) {
     // SAFETY: as in `intersect`, with an `RTCRayN` instead of an `RTCRayHitN`.
-    let args = unsafe { &*args };
-    let set = unsafe { &*(args.geometryUserPtr as *const SphereSet) };
-    let ctx = unsafe { &*(args.context as *const QueryContext) };
+    let (args, set, ctx) = unsafe {
+        let a = &*args;
+        (a, &*(a.geometryUserPtr as *const SphereSet), &*(a.context as *const QueryContext))
+    };
     let rays = SoA { words: args.ray as *mut u32, n: args.N as usize };
-    let result = catch_unwind(AssertUnwindSafe(|| {
-        if set.panic_in_callbacks {
-            panic!("test hook: sphere occluded callback");
+    let prim_id = args.primID;
+    let record_occlusion = |lane: usize, org: Vec3, dir: Vec3, tnear: f32, tfar: f32| {
+        let s = set.spheres[prim_id as usize];
+        if sphere::intersect(org, dir, s.center, s.radius, tnear, tfar).is_some() {
+            // SAFETY: this active lane's tfar, inside RTCRayN; −∞ is how Embree marks
+            // an occluded ray.
+            unsafe { rays.set_f32(TFAR, lane, f32::NEG_INFINITY) };
         }
-        let s = set.spheres[args.primID as usize];
-        for lane in 0..rays.n {
-            // SAFETY: as in `intersect`.
-            if unsafe { *args.valid.add(lane) } != -1 {
-                continue;
-            }
-            let (org, dir, tnear, tfar) = unsafe {
-                (rays.vec3(ORG_X, lane), rays.vec3(DIR_X, lane), rays.f32(TNEAR, lane), rays.f32(TFAR, lane))
-            };
-            if sphere::intersect(org, dir, s.center, s.radius, tnear, tfar).is_some() {
-                // SAFETY: this lane's tfar, inside RTCRayN. −∞ is how Embree marks occlusion.
-                unsafe { rays.set_f32(TFAR, lane, f32::NEG_INFINITY) };
-            }
-        }
-    }));
-    if let Err(payload) = result {
-        ctx.record_panic(panic_message(payload.as_ref()));
-    }
+    };
+    // SAFETY: `valid` and `ray` are the N-wide arrays Embree passed together.
+    unsafe { for_each_active_lane(args.valid, &rays, ctx, set, "occluded", record_occlusion) };
 }
