@@ -6,6 +6,7 @@ pub mod embree;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
+pub mod io;
 pub mod light;
 pub mod material;
 pub mod math;
