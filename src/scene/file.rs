@@ -348,8 +348,13 @@ fn at(span: Range<usize>, message: impl Into<String>) -> Problem {
     Problem { span: Some(span), message: message.into() }
 }
 
+/// A number as a person would write it: `1e39` rather than forty digits.
+fn num(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-5..1e16).contains(&x.abs()) { format!("{x:e}") } else { format!("{x}") }
+}
+
 fn fmt3(v: [f64; 3]) -> String {
-    format!("[{}, {}, {}]", v[0], v[1], v[2])
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
 }
 
 /// A number that is finite in f32 (TOML allows `nan` and `inf`; 1e39 overflows f32).
@@ -359,7 +364,7 @@ fn is_finite32(x: f64) -> bool {
 
 fn number(value: &Spanned<f64>, what: &str) -> Result<f64, Problem> {
     let x = *value.get_ref();
-    if is_finite32(x) { Ok(x) } else { Err(at(value.span(), format!("{what} {x} is not a finite number"))) }
+    if is_finite32(x) { Ok(x) } else { Err(at(value.span(), format!("{what} {} is not a finite number", num(x)))) }
 }
 
 fn point(value: &Spanned<V3>, what: &str) -> Result<DVec3, Problem> {
