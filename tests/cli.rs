@@ -433,3 +433,23 @@ fn output_must_be_exr() {
     let e = fails(&dir, &render_args(scene.to_str().unwrap(), out.to_str().unwrap()));
     assert!(e.contains("must have the extension .exr"), "{e}");
 }
+
+#[test]
+fn malformed_command_lines_are_one_line_too() {
+    let scene = scene_path("whitted.toml");
+    for args in [
+        vec!["render", scene.to_str().unwrap()],
+        vec!["render", scene.to_str().unwrap(), "-o", "x.exr", "--width", "0"],
+        vec!["render", scene.to_str().unwrap(), "-o", "x.exr", "--threads", "many"],
+    ] {
+        let out = strahl(&args);
+        let stderr = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr:?}");
+        assert!(stderr.starts_with("error: "), "{stderr:?}");
+    }
+    let out = strahl(&["render", scene.to_str().unwrap()]);
+    assert!(text(&out.stderr).contains("--output"), "names the missing option");
+    let out = strahl(&["--help"]);
+    assert!(out.status.success() && text(&out.stdout).contains("render"));
+}

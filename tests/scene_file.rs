@@ -408,3 +408,18 @@ fn missing_file_names_it() {
     assert!(matches!(e, SceneError::Read { .. }));
     assert!(e.to_string().starts_with("scenes/does-not-exist.toml: cannot read the scene: "), "{e}");
 }
+
+#[test]
+fn the_documented_example_is_a_valid_scene() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/scene-format.md")).unwrap();
+    let start = doc.find("```toml\n").expect("a toml example") + "```toml\n".len();
+    let example = &doc[start..start + doc[start..].find("```").unwrap()];
+    let s = from_toml_str(example, Path::new("docs/scene-format.md")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((s.image.width, s.image.height, s.image.spp), (640, 480, 4));
+    assert_eq!((s.materials.len(), s.lights.len(), s.planes.len(), s.meshes.len()), (4, 2, 1, 1));
+    assert_eq!(s.spheres.len(), 1 + 5000);
+    assert_eq!(s.planes[0], Plane { normal: Vec3::Y, dist: -0.5, material: 1 });
+    // The quad: scaled ×2 in x, turned 30° about y, moved to (−3, 0, −2).
+    let (sin, cos) = 30f32.to_radians().sin_cos();
+    assert!(close(s.meshes[0].positions[1], Vec3::new(-3.0 + 2.0 * cos, 0.0, -2.0 - 2.0 * sin)));
+}

@@ -17,8 +17,9 @@ pub fn srgb_encode(linear: f32) -> f32 {
 
 /// A linear radiance value as an 8-bit sRGB code after multiplying by `scale`; negative and
 /// NaN values become 0, values above 1 clip to 255.
+#[allow(clippy::manual_clamp)] // `clamp` keeps NaN; `max` maps it to 0
 pub fn to_srgb8(linear: f32, scale: f32) -> u8 {
-    let x = (linear * scale).max(0.0).min(1.0); // `max` maps NaN to 0
+    let x = (linear * scale).max(0.0).min(1.0);
     (srgb_encode(x) * 255.0).round() as u8
 }
 
