@@ -185,7 +185,8 @@ fn primary_direction(scene: &Scene, x: usize, y: usize) -> (DVec3, DVec3) {
     (e, s.normalize())
 }
 
-/// What the primary ray through a pixel sees first, from the scene's planes and spheres.
+/// What the primary ray through a pixel sees first, from the scene's planes, spheres and
+/// triangles.
 enum FirstHit {
     Nothing,
     Plane {
@@ -196,13 +197,49 @@ enum FirstHit {
         t: f64,
         index: usize,
     },
-    /// Too close to a silhouette or the horizon for f32 and f64 to agree on it.
+    Triangle {
+        t: f64,
+    },
+    /// Too close to a silhouette, an edge or the horizon for f32 and f64 to agree on it.
     Ambiguous,
 }
 
+/// Ray–triangle (Möller–Trumbore) in f64: `Some(t)` for a hit, `None` for a miss, `Err(())`
+/// when the ray passes within `margin` (in barycentric terms) of an edge.
+fn triangle_hit(org: DVec3, dir: DVec3, [a, b, c]: [DVec3; 3], margin: f64) -> Result<Option<f64>, ()> {
+    let (e1, e2) = (b - a, c - a);
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return Ok(None);
+    }
+    let s = org - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = dir.dot(q) / det;
+    let t = e2.dot(q) / det;
+    if t <= 1e-9 {
+        return Ok(None);
+    }
+    let w = 1.0 - u - v;
+    if u.abs().min(v.abs()).min(w.abs()) < margin {
+        return Err(());
+    }
+    Ok((u > 0.0 && v > 0.0 && w > 0.0).then_some(t))
+}
+
+fn triangles(scene: &Scene) -> Vec<[DVec3; 3]> {
+    let mut all = Vec::new();
+    for m in &scene.meshes {
+        for i in 0..m.indices.len() {
+            all.push(m.triangle(i).map(|p| p.as_dvec3()));
+        }
+    }
+    all
+}
+
 fn first_hit(scene: &Scene, org: DVec3, dir: DVec3) -> FirstHit {
-    assert!(scene.meshes.is_empty(), "the analytic reference covers planes and spheres");
-    let mut best = (f64::INFINITY, None);
+    let mut best = (f64::INFINITY, FirstHit::Nothing);
     for (i, p) in scene.planes.iter().enumerate() {
         let (n, d) = (p.normal.as_dvec3(), p.dist as f64);
         let denom = dir.dot(n);
@@ -211,7 +248,7 @@ fn first_hit(scene: &Scene, org: DVec3, dir: DVec3) -> FirstHit {
         }
         let t = (d - org.dot(n)) / denom;
         if t > 0.0 && t < best.0 {
-            best = (t, Some((false, i)));
+            best = (t, FirstHit::Plane { t, index: i });
         }
     }
     for (i, s) in scene.spheres.iter().enumerate() {
@@ -225,15 +262,41 @@ fn first_hit(scene: &Scene, org: DVec3, dir: DVec3) -> FirstHit {
         if disc > 0.0 {
             let t = -b - disc.sqrt();
             if t > 0.0 && t < best.0 {
-                best = (t, Some((true, i)));
+                best = (t, FirstHit::Sphere { t, index: i });
             }
         }
     }
-    match best {
-        (_, None) => FirstHit::Nothing,
-        (t, Some((false, index))) => FirstHit::Plane { t, index },
-        (t, Some((true, index))) => FirstHit::Sphere { t, index },
+    for tri in triangles(scene) {
+        match triangle_hit(org, dir, tri, 1e-3) {
+            Err(()) => return FirstHit::Ambiguous,
+            Ok(Some(t)) if t < best.0 => best = (t, FirstHit::Triangle { t }),
+            Ok(_) => {}
+        }
     }
+    best.1
+}
+
+/// Whether the segment from `p` along unit `dir` up to `tmax` is blocked by a sphere or a
+/// triangle: `None` when it passes too close to an outline to say.
+fn blocked(scene: &Scene, p: DVec3, dir: DVec3, tmax: f64) -> Option<bool> {
+    let mut hit = false;
+    for s in &scene.spheres {
+        let (c, r) = (s.center.as_dvec3(), s.radius as f64);
+        let along = (c - p).dot(dir).clamp(0.0, tmax);
+        let miss_by = (p + along * dir - c).length() - r;
+        if miss_by.abs() < 1e-3 {
+            return None;
+        }
+        hit |= miss_by < 0.0;
+    }
+    for tri in triangles(scene) {
+        match triangle_hit(p, dir, tri, 1e-3) {
+            Err(()) => return None,
+            Ok(Some(t)) => hit |= t < tmax,
+            Ok(None) => {}
+        }
+    }
+    Some(hit)
 }
 
 #[test]
@@ -258,7 +321,7 @@ fn depth_normal_albedo_and_alpha_match_the_analytic_scene() {
             let normal = DVec3::new(n[0][i] as f64, n[1][i] as f64, n[2][i] as f64);
             let alb = DVec3::new(albedo[0][i] as f64, albedo[1][i] as f64, albedo[2][i] as f64);
             match first_hit(&scene, org, dir) {
-                FirstHit::Ambiguous => {}
+                FirstHit::Ambiguous | FirstHit::Triangle { .. } => {}
                 FirstHit::Nothing => {
                     misses += 1;
                     assert_eq!(z[i], f32::INFINITY, "pixel ({x}, {y}) sees nothing");
@@ -305,6 +368,68 @@ fn depth_normal_albedo_and_alpha_match_the_analytic_scene() {
     }
     // The test saw all three cases in quantity.
     assert!(planes > 500 && spheres > 300 && misses > 300, "planes {planes}, spheres {spheres}, misses {misses}");
+}
+
+#[test]
+#[ignore = "needs the Whitted integrator"]
+fn lit_floor_is_lambertian_under_a_point_and_a_directional_light() {
+    // The lecture scene's floor is grey (ρ = 0.6) and matte: its radiance is
+    // ρ/π · (I·cosθ/d² + E·cosθ') for each light it sees, plus ρ·ambient.
+    let dir = TempDir::new("radiance");
+    let (w, h) = (64usize, 48usize);
+    let path = scene_path("lecture.toml");
+    let (exr, _, _) = render_small(&path, &dir, "2", w as u32, h as u32);
+    let mut scene = strahl::scene::load(&path).unwrap();
+    (scene.image.width, scene.image.height) = (w as u32, h as u32);
+    let (_, _, ch) = read_exr(&exr);
+    let rgb = [channel(&ch, "R"), channel(&ch, "G"), channel(&ch, "B")];
+    let (mut lit, mut shadowed) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let (org, ray_dir) = primary_direction(&scene, x, y);
+            let FirstHit::Plane { t, index } = first_hit(&scene, org, ray_dir) else { continue };
+            let plane = scene.planes[index];
+            let (p, n) = (org + t * ray_dir, plane.normal.as_dvec3());
+            let m = &scene.materials[plane.material as usize];
+            let Texture::Constant(albedo) = m.diffuse else { panic!("the floor is plain") };
+            let rho = albedo.x as f64;
+            let mut irradiance = 0.0;
+            let mut ambiguous = false;
+            let mut in_shadow = false;
+            for light in &scene.lights {
+                let (to_light, dist, e) = match *light {
+                    strahl::light::Light::Point { position, intensity } => {
+                        let d = position.as_dvec3() - p;
+                        let dist = d.length();
+                        (d / dist, dist, intensity.x as f64 / (dist * dist))
+                    }
+                    strahl::light::Light::Directional { direction, irradiance } => {
+                        (-direction.as_dvec3().normalize(), f64::INFINITY, irradiance.x as f64)
+                    }
+                };
+                match blocked(&scene, p, to_light, dist) {
+                    None => ambiguous = true,
+                    Some(true) => in_shadow = true,
+                    Some(false) => irradiance += e * n.dot(to_light).max(0.0),
+                }
+            }
+            if ambiguous {
+                continue;
+            }
+            if in_shadow {
+                shadowed += 1
+            } else {
+                lit += 1
+            }
+            let want = rho / std::f64::consts::PI * irradiance + rho * scene.image.ambient.x as f64;
+            for c in 0..3 {
+                let got = rgb[c][i] as f64;
+                assert!((got - want).abs() <= 1e-4 * want, "pixel ({x}, {y}) channel {c}: {got} vs {want}");
+            }
+        }
+    }
+    assert!(lit > 500 && shadowed > 20, "lit {lit}, shadowed {shadowed}");
 }
 
 // ----- bad input: one line on stderr, exit status 1, no output file -----
