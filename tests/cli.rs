@@ -197,9 +197,7 @@ enum FirstHit {
         t: f64,
         index: usize,
     },
-    Triangle {
-        t: f64,
-    },
+    Triangle,
     /// Too close to a silhouette, an edge or the horizon for f32 and f64 to agree on it.
     Ambiguous,
 }
@@ -269,7 +267,7 @@ fn first_hit(scene: &Scene, org: DVec3, dir: DVec3) -> FirstHit {
     for tri in triangles(scene) {
         match triangle_hit(org, dir, tri, 1e-3) {
             Err(()) => return FirstHit::Ambiguous,
-            Ok(Some(t)) if t < best.0 => best = (t, FirstHit::Triangle { t }),
+            Ok(Some(t)) if t < best.0 => best = (t, FirstHit::Triangle),
             Ok(_) => {}
         }
     }
@@ -321,7 +319,7 @@ fn depth_normal_albedo_and_alpha_match_the_analytic_scene() {
             let normal = DVec3::new(n[0][i] as f64, n[1][i] as f64, n[2][i] as f64);
             let alb = DVec3::new(albedo[0][i] as f64, albedo[1][i] as f64, albedo[2][i] as f64);
             match first_hit(&scene, org, dir) {
-                FirstHit::Ambiguous | FirstHit::Triangle { .. } => {}
+                FirstHit::Ambiguous | FirstHit::Triangle => {}
                 FirstHit::Nothing => {
                     misses += 1;
                     assert_eq!(z[i], f32::INFINITY, "pixel ({x}, {y}) sees nothing");
@@ -423,8 +421,8 @@ fn lit_floor_is_lambertian_under_a_point_and_a_directional_light() {
                 lit += 1
             }
             let want = rho / std::f64::consts::PI * irradiance + rho * scene.image.ambient.x as f64;
-            for c in 0..3 {
-                let got = rgb[c][i] as f64;
+            for (c, channel) in rgb.iter().enumerate() {
+                let got = channel[i] as f64;
                 assert!((got - want).abs() <= 1e-4 * want, "pixel ({x}, {y}) channel {c}: {got} vs {want}");
             }
         }
