@@ -102,7 +102,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let render_seconds = render_start.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
-    pool.install(|| strahl::io::exr::write(&film, &args.output, threads))?;
+    strahl::io::exr::write(&film, &args.output, threads)?;
     if let Some(png) = &args.png {
         strahl::io::png::write(&film, args.exposure, png)?;
     }
