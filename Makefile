@@ -3,15 +3,19 @@
 
 SHELL := bash
 CARGO ?= cargo
-PACKAGES := libembree-dev libclang-dev
+# Embree and libclang (for bindgen), and the C toolchain Rust links with.
+PACKAGES := libembree-dev libclang-dev gcc libc6-dev
 SCENES := $(wildcard scenes/*.toml)
+STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 
 .PHONY: all deps build demo test bench clean
 
 all: build
 
-# Install the Debian packages strahl builds against, if any is missing.
+# Install the Debian packages strahl builds against, if any is missing; Rust itself comes
+# from rustup (Debian bookworm's cargo is older than the 1.85 strahl needs).
 deps:
+	@command -v $(CARGO) >/dev/null || { echo "strahl needs Rust 1.85 or newer: install it with rustup (https://rustup.rs)" >&2; exit 1; }
 	@missing=""; \
 	for p in $(PACKAGES); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
@@ -32,7 +36,7 @@ demo: build
 	@for s in $(SCENES); do \
 	  n=$$(basename $$s .toml); \
 	  echo "rendering $$s -> out/$$n.exr, out/$$n.png"; \
-	  target/release/strahl render $$s -o out/$$n.exr --png out/$$n.png || exit 1; \
+	  $(STRAHL) render $$s -o out/$$n.exr --png out/$$n.png || exit 1; \
 	done
 
 test: deps

@@ -1,9 +1,14 @@
-//! Reading and writing files: meshes (OBJ with MTL, PLY; gzip-compressed too).
+//! Files strahl reads and writes besides scenes: meshes (OBJ with MTL, PLY; gzip-compressed
+//! too) in, the rendered image out as OpenEXR and as a PNG preview, each written atomically.
 
+pub mod atomic;
+pub mod exr;
 pub mod mesh;
 pub mod obj;
 pub mod ply;
+pub mod png;
 pub mod polygon;
 mod text;
 
+pub use atomic::{WriteError, write_atomically};
 pub use mesh::{LoadedMesh, MeshError, MeshFormat, MeshOptions, load_mesh};

@@ -4,9 +4,12 @@
 //! Loading (TOML, OBJ, PLY) produces a [`Scene`]; nothing downstream knows which file format
 //! it came from.
 
+pub mod file;
 pub mod mesh;
 pub mod procedural;
+pub mod transform;
 
+pub use file::{SceneError, from_toml_str, load};
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};

@@ -1,0 +1,50 @@
+//! The `strahl` command's subcommands, one file each (`render.rs`; `info`, `crosscheck` and
+//! `bench` are added the same way), and what they share: the thread pool and the Embree
+//! device. Errors are `anyhow` with context; `main` prints them as one line.
+
+mod render;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+/// strahl: an offline Whitted-style ray tracer over Intel Embree.
+#[derive(Parser, Debug)]
+#[command(name = "strahl", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene file to OpenEXR (and optionally a PNG preview).
+    Render(render::RenderArgs),
+}
+
+/// Runs the parsed command.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => render::run(args),
+    }
+}
+
+/// The number of threads to use: `requested`, or one per core.
+fn thread_count(requested: Option<usize>) -> usize {
+    requested.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// A rayon pool of `threads` workers, each with flush-to-zero on as Embree asks.
+fn thread_pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("strahl-{i}"))
+        .start_handler(|_| strahl::embree::enable_flush_to_zero())
+        .build()
+        .with_context(|| format!("cannot start {threads} threads"))
+}
+
+/// An Embree device that builds BVHs on `threads` threads.
+fn embree_device(threads: usize) -> anyhow::Result<strahl::embree::Device> {
+    strahl::embree::Device::with_options(strahl::embree::DeviceOptions { threads: Some(threads) })
+        .context("cannot start Embree")
+}

@@ -1,0 +1,156 @@
+//! `strahl render SCENE -o OUT.exr [--png OUT.png]`: loads the scene, applies the command-line
+//! overrides, checks the outputs can be written, builds Embree's BVH, renders on a pool of
+//! `--threads` workers with a progress bar, writes the EXR (and PNG) atomically and prints a
+//! summary: resolution, samples, rays by kind, time, Mrays/s.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use strahl::embree::{BuildOptions, EmbreeAccel};
+use strahl::integrator::{self, RayCounts};
+use strahl::io::atomic::directory_of;
+use strahl::scene::file::image_problem;
+
+/// Arguments of `strahl render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scene file (TOML; see docs/scene-format.md).
+    scene: PathBuf,
+    /// Where to write the OpenEXR image (linear RGBA, Z, N, albedo).
+    #[arg(short, long, value_name = "OUT.exr")]
+    output: PathBuf,
+    /// Also write an 8-bit sRGB PNG preview here.
+    #[arg(long, value_name = "OUT.png")]
+    png: Option<PathBuf>,
+    /// Image width in pixels (overrides the scene's).
+    #[arg(long, value_name = "W", value_parser = clap::value_parser!(u32).range(1..))]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene's).
+    #[arg(long, value_name = "H", value_parser = clap::value_parser!(u32).range(1..))]
+    height: Option<u32>,
+    /// Samples per pixel (overrides the scene's).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    spp: Option<u32>,
+    /// Longest chain of reflected/refracted rays (overrides the scene's max_depth).
+    #[arg(long, value_name = "D")]
+    depth: Option<u32>,
+    /// Worker threads for rendering, Embree's BVH build and EXR compression [default: one per core].
+    #[arg(long, value_name = "T", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    threads: Option<u32>,
+    /// Exposure of the PNG preview in stops: its radiance is multiplied by 2^EV.
+    #[arg(long, value_name = "EV", default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+}
+
+/// Refuses outputs that cannot be written, before any time is spent rendering.
+fn check_output(path: &Path, extension: &str, what: &str) -> anyhow::Result<()> {
+    let shown = path.display();
+    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case(extension)) {
+        bail!("{shown}: the {what} must have the extension .{extension}");
+    }
+    let dir = directory_of(path);
+    if !dir.is_dir() {
+        bail!("{shown}: the directory {} does not exist", dir.display());
+    }
+    if path.is_dir() {
+        bail!("{shown}: is a directory");
+    }
+    Ok(())
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    check_output(&args.output, "exr", "OpenEXR output (-o)")?;
+    if let Some(png) = &args.png {
+        check_output(png, "png", "PNG preview (--png)")?;
+        if png == &args.output {
+            bail!("{}: given as both the EXR and the PNG output", png.display());
+        }
+    }
+    if !args.exposure.is_finite() {
+        bail!("--exposure {} is not a finite number of stops", args.exposure);
+    }
+
+    let mut scene = strahl::scene::load(&args.scene)?;
+    let image = &mut scene.image;
+    image.width = args.width.unwrap_or(image.width);
+    image.height = args.height.unwrap_or(image.height);
+    image.spp = args.spp.unwrap_or(image.spp);
+    image.max_depth = args.depth.unwrap_or(image.max_depth);
+    if let Some((_, problem)) = image_problem(image) {
+        bail!("{}: with the command-line settings: {problem}", args.scene.display());
+    }
+    let image = scene.image;
+
+    let threads = super::thread_count(args.threads.map(|t| t as usize));
+    let pool = super::thread_pool(threads)?;
+    let device = super::embree_device(threads)?;
+    let build_start = Instant::now();
+    let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
+        .with_context(|| format!("{}: cannot build the BVH", args.scene.display()))?;
+    let build_seconds = build_start.elapsed().as_secs_f64();
+
+    let pixels = image.width as u64 * image.height as u64;
+    let bar = progress_bar(pixels);
+    let render_start = Instant::now();
+    let (film, rays) = pool
+        .install(|| integrator::render(&scene, &accel, &|done| bar.inc(done)))
+        .with_context(|| format!("{}: rendering failed", args.scene.display()))?;
+    let render_seconds = render_start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    strahl::io::exr::write(&film, &args.output, threads)?;
+    if let Some(png) = &args.png {
+        strahl::io::png::write(&film, args.exposure, png)?;
+    }
+
+    println!(
+        "{}: {} × {} pixels, {} spp, max depth {}, {threads} thread{}",
+        args.scene.display(),
+        image.width,
+        image.height,
+        image.spp,
+        image.max_depth,
+        if threads == 1 { "" } else { "s" }
+    );
+    println!("  rays: {}", ray_summary(&rays));
+    println!(
+        "  time: {render_seconds:.3} s rendering ({:.2} Mrays/s), {build_seconds:.3} s BVH build",
+        mrays_per_second(rays.total(), render_seconds)
+    );
+    let mut written = args.output.display().to_string();
+    if let Some(png) = &args.png {
+        written += &format!(", {}", png.display());
+    }
+    println!("  wrote {written}");
+    Ok(())
+}
+
+/// A progress bar over `pixels` on stderr, hidden when stderr is not a terminal.
+fn progress_bar(pixels: u64) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let style = ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} (eta {eta})")
+        .unwrap_or_else(|_| ProgressStyle::default_bar());
+    ProgressBar::with_draw_target(Some(pixels), ProgressDrawTarget::stderr()).with_style(style)
+}
+
+fn ray_summary(r: &RayCounts) -> String {
+    format!(
+        "{} primary, {} shadow, {} reflected, {} refracted, {} in all",
+        r.primary,
+        r.shadow,
+        r.reflected,
+        r.refracted,
+        r.total()
+    )
+}
+
+/// Millions of rays per second; 0 when nothing was timed.
+fn mrays_per_second(rays: u64, seconds: f64) -> f64 {
+    if seconds > 0.0 { rays as f64 / seconds / 1e6 } else { 0.0 }
+}

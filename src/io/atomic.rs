@@ -1,0 +1,120 @@
+//! Writing a file all at once or not at all: the bytes go to a temporary file in the
+//! destination's directory, which is then renamed over the destination (atomic on one file
+//! system). On any error the temporary file is removed and the destination is untouched.
+
+use std::fs::{self, OpenOptions};
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Why an output file could not be written. Displays as one line naming the file.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {problem}", path.display())]
+pub struct WriteError {
+    pub path: PathBuf,
+    pub problem: String,
+}
+
+impl WriteError {
+    pub fn new(path: &Path, problem: impl Into<String>) -> Self {
+        WriteError { path: path.to_path_buf(), problem: problem.into() }
+    }
+}
+
+/// The directory a file at `path` goes into (`.` for a bare file name).
+pub fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    }
+}
+
+/// Writes `bytes` to `path` atomically: either the whole file appears, or nothing changes.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let dir = directory_of(path);
+    let name = path.file_name().ok_or_else(|| WriteError::new(path, "is not a file name"))?;
+    if !dir.is_dir() {
+        return Err(WriteError::new(path, format!("the directory {} does not exist", dir.display())));
+    }
+    // A name unique to this process and call; `create_new` refuses to reuse a leftover.
+    let (file, tmp) = loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".{}.{}.{n}.tmp", name.to_string_lossy(), std::process::id()));
+        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(file) => break (file, tmp),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => continue,
+            Err(e) => return Err(WriteError::new(path, format!("cannot create a file in {}: {e}", dir.display()))),
+        }
+    };
+    let result = (|| -> io::Result<()> {
+        let mut file = file;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        drop(file);
+        fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = fs::remove_file(&tmp);
+        WriteError::new(path, format!("cannot write: {e}"))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh directory under the system's temporary directory, removed on drop.
+    struct TempDir(PathBuf);
+    impl TempDir {
+        fn new(tag: &str) -> Self {
+            let p = std::env::temp_dir().join(format!("strahl-atomic-{tag}-{}", std::process::id()));
+            let _ = fs::remove_dir_all(&p);
+            fs::create_dir_all(&p).unwrap();
+            TempDir(p)
+        }
+    }
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> =
+            fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn writes_and_replaces_leaving_no_temporary_file() {
+        let dir = TempDir::new("replace");
+        let path = dir.0.join("a.bin");
+        write_atomically(&path, b"first").unwrap();
+        write_atomically(&path, b"second").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"second");
+        assert_eq!(entries(&dir.0), ["a.bin"]);
+    }
+
+    #[test]
+    fn missing_directory_is_an_error_naming_it() {
+        let dir = TempDir::new("missing");
+        let path = dir.0.join("nope").join("a.bin");
+        let e = write_atomically(&path, b"x").unwrap_err();
+        assert!(e.to_string().ends_with(&format!("the directory {} does not exist", dir.0.join("nope").display())));
+        assert!(entries(&dir.0).is_empty());
+    }
+
+    #[test]
+    fn failed_rename_removes_the_temporary_file() {
+        // The destination is a non-empty directory: the rename fails after the bytes were written.
+        let dir = TempDir::new("rename");
+        let path = dir.0.join("taken");
+        fs::create_dir(&path).unwrap();
+        fs::write(path.join("inside"), b"x").unwrap();
+        let e = write_atomically(&path, b"data").unwrap_err();
+        assert!(e.to_string().contains("cannot write"), "{e}");
+        assert_eq!(entries(&dir.0), ["taken"]);
+    }
+}

@@ -1,0 +1,459 @@
+//! Scene files: the TOML schema (see `docs/scene-format.md`) and its loading into a [`Scene`].
+//!
+//! Every table rejects unknown keys. Every error is one line naming the file, and the line and
+//! column of the offending value where there is one: TOML syntax and type errors come from the
+//! `toml` crate's spans, and the checks done here keep the span of each value (`Spanned`) so a
+//! radius ≤ 0 or an unknown material name points at itself. The objects are in [`objects`].
+
+mod objects;
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use serde::Deserialize;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use toml::Spanned;
+
+use objects::{ObjectContext, ObjectFile};
+
+use super::{CameraSpec, ImageSpec, Scene};
+use crate::light::Light;
+use crate::material::{Material, Texture};
+use crate::math::Vec3;
+
+/// Most spheres one `random_spheres` object may make (a typo should not exhaust memory).
+pub const MAX_RANDOM_SPHERES: u64 = 10_000_000;
+/// Most pixels an image may have (8192 × 8192).
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+/// Why a scene file could not be loaded. Displays as one line naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{}: cannot read the scene: {source}", path.display())]
+    Read { path: PathBuf, source: std::io::Error },
+    /// A problem at a place in the file (1-based line and column, in characters).
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    At { path: PathBuf, line: usize, column: usize, message: String },
+    /// A problem with no place in the file.
+    #[error("{}: {message}", path.display())]
+    Invalid { path: PathBuf, message: String },
+}
+
+/// Loads the scene file at `path`.
+pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read { path: path.into(), source })?;
+    from_toml_str(&text, path)
+}
+
+/// Parses a scene from TOML text; `path` names it in errors, and relative paths in it (mesh
+/// files) are resolved against `path`'s directory.
+pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let locate = |problem: Problem| match problem.span {
+        Some(span) => {
+            let (line, column) = line_column(text, span.start);
+            SceneError::At { path: path.into(), line, column, message: problem.message }
+        }
+        None => SceneError::Invalid { path: path.into(), message: problem.message },
+    };
+    let file: SceneFile = toml::from_str(text)
+        .map_err(|e| locate(Problem { span: e.span(), message: e.message().trim().replace('\n', "; ") }))?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    file.into_scene(base).map_err(locate)
+}
+
+/// 1-based line and column (in characters) of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    (line, before[line_start..].chars().count() + 1)
+}
+
+/// What the image settings must satisfy, as `(field, problem)`: also checked by the command
+/// after its `--width`/`--height`/`--spp` overrides.
+pub fn image_problem(image: &ImageSpec) -> Option<(&'static str, String)> {
+    let pixels = image.width as u64 * image.height as u64;
+    if image.width == 0 {
+        Some(("width", "width must be at least 1 pixel".into()))
+    } else if image.height == 0 {
+        Some(("height", "height must be at least 1 pixel".into()))
+    } else if pixels > MAX_PIXELS {
+        Some((
+            "width",
+            format!("{} × {} pixels is more than the {MAX_PIXELS} strahl renders", image.width, image.height),
+        ))
+    } else if image.spp == 0 {
+        Some(("spp", "spp (samples per pixel) must be at least 1".into()))
+    } else if !image.background.is_finite() || image.background.min_element() < 0.0 {
+        Some(("background", format!("background {} must be finite and ≥ 0", image.background)))
+    } else if !image.ambient.is_finite() || image.ambient.min_element() < 0.0 {
+        Some(("ambient", format!("ambient {} must be finite and ≥ 0", image.ambient)))
+    } else {
+        None
+    }
+}
+
+/// What the camera must satisfy for the lecture's basis `w = (e−z)/|e−z|`, `u = up×w`,
+/// `v = w×u` to exist, as `(field, problem)`.
+pub fn camera_problem(camera: &CameraSpec) -> Option<(&'static str, String)> {
+    let view = camera.eye - camera.target;
+    let w = view.normalize_or_zero();
+    if w == Vec3::ZERO || !w.is_finite() {
+        Some(("target", format!("eye and target are both {}: the camera has no view direction", camera.eye)))
+    } else if camera.up.cross(w).length() <= 1e-6 * camera.up.length() {
+        Some((
+            "up",
+            format!("up {} is parallel to the view direction {}", camera.up, (camera.target - camera.eye).normalize()),
+        ))
+    } else if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+        Some(("fov_deg", format!("fov_deg {} must lie between 0 and 180 degrees", camera.fov_deg)))
+    } else {
+        None
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The schema, as serde reads it.
+
+type V3 = [f64; 3];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: Spanned<CameraFile>,
+    image: Option<Spanned<ImageFile>>,
+    #[serde(default)]
+    materials: BTreeMap<String, Spanned<MaterialFile>>,
+    #[serde(default)]
+    lights: Vec<Spanned<LightFile>>,
+    #[serde(default)]
+    objects: Vec<Spanned<ObjectFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    eye: Spanned<V3>,
+    target: Spanned<V3>,
+    up: Option<Spanned<V3>>,
+    fov_deg: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ImageFile {
+    width: Option<Spanned<u32>>,
+    height: Option<Spanned<u32>>,
+    spp: Option<Spanned<u32>>,
+    max_depth: Option<Spanned<u32>>,
+    background: Option<Spanned<Triple>>,
+    ambient: Option<Spanned<Triple>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    diffuse: Option<Spanned<Triple>>,
+    checker: Option<Spanned<CheckerFile>>,
+    specular: Option<Spanned<Triple>>,
+    shininess: Option<Spanned<f64>>,
+    mirror: Option<Spanned<Triple>>,
+    transmission: Option<Spanned<Triple>>,
+    ior: Option<Spanned<f64>>,
+    emission: Option<Spanned<Triple>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CheckerFile {
+    even: Spanned<Triple>,
+    odd: Spanned<Triple>,
+    size: Spanned<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq)]
+#[serde(rename_all = "snake_case")]
+enum LightKind {
+    Point,
+    Directional,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightFile {
+    #[serde(rename = "type")]
+    kind: Spanned<LightKind>,
+    position: Option<Spanned<V3>>,
+    intensity: Option<Spanned<Triple>>,
+    direction: Option<Spanned<V3>>,
+    irradiance: Option<Spanned<Triple>>,
+}
+
+/// A colour or per-axis factor: one number for all three channels, or `[r, g, b]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Triple([f64; 3]);
+
+impl<'de> Deserialize<'de> for Triple {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct TripleVisitor;
+        impl<'de> Visitor<'de> for TripleVisitor {
+            type Value = Triple;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or an array of 3 numbers")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Triple, E> {
+                Ok(Triple([v; 3]))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Triple, E> {
+                Ok(Triple([v as f64; 3]))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Triple, E> {
+                Ok(Triple([v as f64; 3]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Triple, A::Error> {
+                let mut v = [0.0; 3];
+                for (i, x) in v.iter_mut().enumerate() {
+                    *x = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                }
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::invalid_length(4, &self));
+                }
+                Ok(Triple(v))
+            }
+        }
+        deserializer.deserialize_any(TripleVisitor)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// From the schema to a Scene, checking every value.
+
+/// A problem and where it is in the file.
+struct Problem {
+    span: Option<Range<usize>>,
+    message: String,
+}
+
+fn at(span: Range<usize>, message: impl Into<String>) -> Problem {
+    Problem { span: Some(span), message: message.into() }
+}
+
+/// A number as a person would write it: `1e39` rather than forty digits.
+fn num(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-5..1e16).contains(&x.abs()) { format!("{x:e}") } else { format!("{x}") }
+}
+
+fn fmt3(v: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
+}
+
+/// A number that is finite in f32 (TOML allows `nan` and `inf`; 1e39 overflows f32).
+fn is_finite32(x: f64) -> bool {
+    x.is_finite() && (x as f32).is_finite()
+}
+
+fn number(value: &Spanned<f64>, what: &str) -> Result<f64, Problem> {
+    let x = *value.get_ref();
+    if is_finite32(x) { Ok(x) } else { Err(at(value.span(), format!("{what} {} is not a finite number", num(x)))) }
+}
+
+fn point(value: &Spanned<V3>, what: &str) -> Result<DVec3, Problem> {
+    let v = *value.get_ref();
+    if v.iter().all(|&x| is_finite32(x)) {
+        Ok(DVec3::from(v))
+    } else {
+        Err(at(value.span(), format!("{what} {} is not finite", fmt3(v))))
+    }
+}
+
+/// A non-zero direction, normalised.
+fn direction(value: &Spanned<V3>, what: &str) -> Result<DVec3, Problem> {
+    let v = point(value, what)?;
+    let n = v.normalize_or_zero();
+    if n == DVec3::ZERO { Err(at(value.span(), format!("{what} {} has no direction", fmt3(v.into())))) } else { Ok(n) }
+}
+
+/// A colour with every channel finite, ≥ 0 and (for reflectances) ≤ `max`.
+fn color(value: &Spanned<Triple>, what: &str, max: Option<f64>) -> Result<Vec3, Problem> {
+    let v = value.get_ref().0;
+    if !v.iter().all(|&x| is_finite32(x)) {
+        return Err(at(value.span(), format!("{what} {} is not finite", fmt3(v))));
+    }
+    if v.iter().any(|&x| x < 0.0) {
+        return Err(at(value.span(), format!("{what} {} must not be negative", fmt3(v))));
+    }
+    if let Some(max) = max.filter(|&m| v.iter().any(|&x| x > m)) {
+        return Err(at(value.span(), format!("{what} {} is a reflectance and must lie in [0, {max}]", fmt3(v))));
+    }
+    Ok(DVec3::from(v).as_vec3())
+}
+
+fn optional_color(value: &Option<Spanned<Triple>>, what: &str, max: Option<f64>) -> Result<Vec3, Problem> {
+    value.as_ref().map_or(Ok(Vec3::ZERO), |v| color(v, what, max))
+}
+
+/// A required key of a table at `span`.
+fn required<'a, T>(value: &'a Option<Spanned<T>>, what: &str, span: &Range<usize>) -> Result<&'a Spanned<T>, Problem> {
+    value.as_ref().ok_or_else(|| at(span.clone(), format!("missing `{what}`")))
+}
+
+impl SceneFile {
+    fn into_scene(self, base: &Path) -> Result<Scene, Problem> {
+        let camera = self.camera.get_ref().to_spec(&self.camera.span())?;
+        let image = match &self.image {
+            Some(image) => image.get_ref().to_spec(&image.span())?,
+            None => ImageSpec::default(),
+        };
+        let mut scene = Scene { camera, image, ..Default::default() };
+        let mut material_ids = BTreeMap::new();
+        for (i, (name, m)) in self.materials.iter().enumerate() {
+            let material = m.get_ref().to_material(name).map_err(|p| prefix(p, &format!("material '{name}'")))?;
+            scene.materials.push(material);
+            material_ids.insert(name.as_str(), i as u32);
+        }
+        for (i, light) in self.lights.iter().enumerate() {
+            let l = light.get_ref().to_light(&light.span()).map_err(|p| prefix(p, &format!("light {i}")))?;
+            scene.lights.push(l);
+        }
+        for (i, object) in self.objects.iter().enumerate() {
+            let ctx = ObjectContext { span: object.span(), index: i, materials: &material_ids, base };
+            let o = object.get_ref();
+            o.add_to(&mut scene, &ctx).map_err(|p| prefix(p, &o.label(i)))?;
+        }
+        Ok(scene)
+    }
+}
+
+fn prefix(mut p: Problem, what: &str) -> Problem {
+    p.message = format!("{what}: {}", p.message);
+    p
+}
+
+impl CameraFile {
+    fn to_spec(&self, span: &Range<usize>) -> Result<CameraSpec, Problem> {
+        let spec = CameraSpec {
+            eye: point(&self.eye, "eye")?.as_vec3(),
+            target: point(&self.target, "target")?.as_vec3(),
+            up: self.up.as_ref().map_or(Ok(DVec3::Y), |up| point(up, "up"))?.as_vec3(),
+            fov_deg: number(&self.fov_deg, "fov_deg")? as f32,
+        };
+        if let Some((field, message)) = camera_problem(&spec) {
+            let field_span = match field {
+                "target" => Some(self.target.span()),
+                "up" => self.up.as_ref().map(|u| u.span()),
+                "fov_deg" => Some(self.fov_deg.span()),
+                _ => None,
+            };
+            return Err(at(field_span.unwrap_or_else(|| span.clone()), format!("camera: {message}")));
+        }
+        Ok(spec)
+    }
+}
+
+impl ImageFile {
+    fn to_spec(&self, span: &Range<usize>) -> Result<ImageSpec, Problem> {
+        let d = ImageSpec::default();
+        let int = |v: &Option<Spanned<u32>>, default: u32| v.as_ref().map_or(default, |v| *v.get_ref());
+        let spec = ImageSpec {
+            width: int(&self.width, d.width),
+            height: int(&self.height, d.height),
+            spp: int(&self.spp, d.spp),
+            max_depth: int(&self.max_depth, d.max_depth),
+            background: self.background.as_ref().map_or(Ok(d.background), |c| color(c, "background", None))?,
+            ambient: self.ambient.as_ref().map_or(Ok(d.ambient), |c| color(c, "ambient", None))?,
+        };
+        if let Some((field, message)) = image_problem(&spec) {
+            let field_span = match field {
+                "width" => self.width.as_ref().map(|v| v.span()),
+                "height" => self.height.as_ref().map(|v| v.span()),
+                "spp" => self.spp.as_ref().map(|v| v.span()),
+                _ => None,
+            };
+            return Err(at(field_span.unwrap_or_else(|| span.clone()), format!("image: {message}")));
+        }
+        Ok(spec)
+    }
+}
+
+impl MaterialFile {
+    fn to_material(&self, name: &str) -> Result<Material, Problem> {
+        let diffuse = match (&self.diffuse, &self.checker) {
+            (Some(_), Some(checker)) => {
+                return Err(at(checker.span(), "give either `diffuse` or `checker`, not both"));
+            }
+            (Some(d), None) => Texture::Constant(color(d, "diffuse", Some(1.0))?),
+            (None, Some(checker)) => {
+                let c = checker.get_ref();
+                let size = number(&c.size, "checker size")?;
+                if size <= 0.0 {
+                    return Err(at(c.size.span(), format!("checker size {size} must be > 0")));
+                }
+                Texture::Checker {
+                    even: color(&c.even, "checker even", Some(1.0))?,
+                    odd: color(&c.odd, "checker odd", Some(1.0))?,
+                    size: size as f32,
+                }
+            }
+            (None, None) => Texture::Constant(Vec3::ZERO),
+        };
+        let shininess = self.shininess.as_ref().map_or(Ok(0.0), |s| number(s, "shininess"))?;
+        if shininess < 0.0 {
+            return Err(at(self.shininess.as_ref().unwrap().span(), format!("shininess {shininess} must be ≥ 0")));
+        }
+        let ior = self.ior.as_ref().map_or(Ok(1.5), |s| number(s, "ior"))?;
+        if ior <= 0.0 {
+            return Err(at(self.ior.as_ref().unwrap().span(), format!("ior {ior} must be > 0")));
+        }
+        Ok(Material {
+            name: name.to_string(),
+            diffuse,
+            specular: optional_color(&self.specular, "specular", Some(1.0))?,
+            shininess: shininess as f32,
+            mirror: optional_color(&self.mirror, "mirror", Some(1.0))?,
+            transmission: optional_color(&self.transmission, "transmission", Some(1.0))?,
+            ior: ior as f32,
+            emission: optional_color(&self.emission, "emission", None)?,
+        })
+    }
+}
+
+impl LightFile {
+    fn to_light(&self, span: &Range<usize>) -> Result<Light, Problem> {
+        let kind = *self.kind.get_ref();
+        let span_of = |v: &Option<Spanned<V3>>| v.as_ref().map(|v| v.span());
+        let span_of_color = |v: &Option<Spanned<Triple>>| v.as_ref().map(|v| v.span());
+        let (name, takes, foreign) = match kind {
+            LightKind::Point => (
+                "point",
+                "position, intensity",
+                [("direction", span_of(&self.direction)), ("irradiance", span_of_color(&self.irradiance))],
+            ),
+            LightKind::Directional => (
+                "directional",
+                "direction, irradiance",
+                [("position", span_of(&self.position)), ("intensity", span_of_color(&self.intensity))],
+            ),
+        };
+        if let Some((key, Some(key_span))) = foreign.into_iter().find(|(_, s)| s.is_some()) {
+            return Err(at(key_span, format!("a {name} light has no `{key}` (it takes {takes})")));
+        }
+        Ok(match kind {
+            LightKind::Point => Light::Point {
+                position: point(required(&self.position, "position", span)?, "position")?.as_vec3(),
+                intensity: color(required(&self.intensity, "intensity", span)?, "intensity", None)?,
+            },
+            LightKind::Directional => Light::Directional {
+                direction: direction(required(&self.direction, "direction", span)?, "direction")?.as_vec3(),
+                irradiance: color(required(&self.irradiance, "irradiance", span)?, "irradiance", None)?,
+            },
+        })
+    }
+}
