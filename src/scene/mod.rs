@@ -9,7 +9,7 @@ pub mod mesh;
 pub mod procedural;
 pub mod transform;
 
-pub use file::{SceneError, from_toml_str, load};
+pub use file::{Loaded, ObjectSummary, SceneError, from_toml_str, load};
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};
