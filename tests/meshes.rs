@@ -368,7 +368,7 @@ fn gzip_compressed_obj_reads_like_the_plain_file() {
     dir.write("m.mtl", b"newmtl red\nKd 1 0 0\n");
     let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
     gz.write_all(text.as_bytes()).unwrap();
-    let packed = dir.write("quad.obj.gz", &gz.finish().unwrap());
+    let packed = dir.write("quad.obj.gz", gz.finish().unwrap());
     let plain = dir.write("quad.obj", text.as_bytes());
     let (a, b) = (load(&packed).unwrap(), load(&plain).unwrap());
     assert_eq!(a.meshes[0].indices, vec![[0, 1, 2], [0, 2, 3]]);
