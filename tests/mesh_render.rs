@@ -84,11 +84,15 @@ impl Soup {
     }
 }
 
-/// Loads the scene file `text` written into `dir`.
-fn scene_from(dir: &TempDir, text: &str) -> Scene {
-    let loaded = strahl::scene::load(dir.write("scene.toml", text)).unwrap_or_else(|e| panic!("{e}"));
+/// The scene file `text`, in which `MESH` stands for the path of the data file `mesh`, written
+/// to a temporary folder and loaded (without warnings); `None` when the test data is missing.
+fn data_scene(mesh: &str, text: &str) -> Option<Scene> {
+    let path = data_dir()?.join(mesh);
+    let dir = TempDir::new(mesh.split('/').next().unwrap());
+    let scene = dir.write("scene.toml", text.replace("MESH", &format!("{:?}", path.display())));
+    let loaded = strahl::scene::load(scene).unwrap_or_else(|e| panic!("{e}"));
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
-    loaded.scene
+    Some(loaded.scene)
 }
 
 /// The Cornell box's MTL (cornell/CornellBox-Original.mtl): `(material, Kd, Ke)`. Every
@@ -106,22 +110,18 @@ const CORNELL_MTL: [(&str, [f64; 3], [f64; 3]); 8] = [
 
 #[test]
 fn cornell_box_obj_has_its_mtl_radiance_under_a_point_light() {
-    let Some(data) = data_dir() else { return };
-    let obj = data.join("cornell/CornellBox-Original.obj");
-    let dir = TempDir::new("cornell");
-    let (w, h) = (40u32, 40u32);
     // The scene's own material comes first, so the file's materials are moved past it.
-    let scene = scene_from(
-        &dir,
-        &format!(
-            "[camera]\neye = [0, 1, 3.9]\ntarget = [0, 1, 0]\nfov_deg = 40\n\
-             [image]\nwidth = {w}\nheight = {h}\nspp = 1\nambient = 0.05\n\
-             [materials.unused]\ndiffuse = 0.5\n\
-             [[lights]]\ntype = \"point\"\nposition = [0, 1.8, 0.2]\nintensity = 3\n\
-             [[objects]]\ntype = \"mesh\"\nname = \"box\"\npath = {:?}\n",
-            obj.display()
-        ),
-    );
+    let Some(scene) = data_scene(
+        "cornell/CornellBox-Original.obj",
+        "[camera]\neye = [0, 1, 3.9]\ntarget = [0, 1, 0]\nfov_deg = 40\n\
+         [image]\nwidth = 40\nheight = 40\nspp = 1\nambient = 0.05\n\
+         [materials.unused]\ndiffuse = 0.5\n\
+         [[lights]]\ntype = \"point\"\nposition = [0, 1.8, 0.2]\nintensity = 3\n\
+         [[objects]]\ntype = \"mesh\"\nname = \"box\"\npath = MESH\n",
+    ) else {
+        return;
+    };
+    let (w, h) = (scene.image.width, scene.image.height);
     assert_eq!(scene.materials.len(), 1 + 8);
     let Light::Point { position, intensity } = scene.lights[0] else { unreachable!() };
     let (light, intensity) = (position.as_dvec3(), intensity.x as f64);
@@ -212,24 +212,20 @@ fn cornell_box_obj_has_its_mtl_radiance_under_a_point_light() {
 
 #[test]
 fn bunny_ply_depth_normals_and_coverage_match_brute_force() {
-    let Some(data) = data_dir() else { return };
-    let ply = data.join("stanford/bun_zipper.ply");
-    let dir = TempDir::new("bunny");
-    let (w, h) = (48u32, 48u32);
-    let scene = scene_from(
-        &dir,
-        &format!(
-            "[camera]\neye = [-0.2, 1.3, 4.5]\ntarget = [-0.2, 1.1, 0]\nfov_deg = 26\n\
-             [image]\nwidth = {w}\nheight = {h}\nspp = 1\n\
-             [materials.clay]\ndiffuse = 0.7\n\
-             [[lights]]\ntype = \"directional\"\ndirection = [-1, -1, -1]\nirradiance = 2\n\
-             [[objects]]\ntype = \"mesh\"\nname = \"bunny\"\npath = {:?}\nmaterial = \"clay\"\n\
-             scale = 10\nrotate_deg = [0, 30, 0]\ntranslate = [0, 0, 0.1]\n",
-            ply.display()
-        ),
-    );
+    let Some(scene) = data_scene(
+        "stanford/bun_zipper.ply",
+        "[camera]\neye = [-0.2, 1.3, 4.5]\ntarget = [-0.2, 1.1, 0]\nfov_deg = 26\n\
+         [image]\nwidth = 48\nheight = 48\nspp = 1\n\
+         [materials.clay]\ndiffuse = 0.7\n\
+         [[lights]]\ntype = \"directional\"\ndirection = [-1, -1, -1]\nirradiance = 2\n\
+         [[objects]]\ntype = \"mesh\"\nname = \"bunny\"\npath = MESH\nmaterial = \"clay\"\n\
+         scale = 10\nrotate_deg = [0, 30, 0]\ntranslate = [0, 0, 0.1]\n",
+    ) else {
+        return;
+    };
+    let (w, h) = (scene.image.width, scene.image.height);
     // The object's transform, written out: p' = Ry(30°)·10·p + (0, 0, 0.1).
-    let file = load_mesh(&ply, &MeshOptions::default()).unwrap();
+    let file = load_mesh(&data_dir().unwrap().join("stanford/bun_zipper.ply"), &MeshOptions::default()).unwrap();
     let (bunny, raw) = (&scene.meshes[0], &file.meshes[0]);
     assert_eq!((scene.meshes.len(), bunny.indices.len(), bunny.material), (1, 69451, 0));
     assert_eq!(bunny.indices, raw.indices);
