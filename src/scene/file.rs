@@ -1,9 +1,12 @@
-//! Scene files: the TOML schema (see `docs/scene-format.md`) and its loading into a [`Scene`].
+//! Scene files: the TOML schema (see `docs/scene-format.md`) and its loading, with the mesh
+//! files it names, into a [`Loaded`] scene.
 //!
 //! Every table rejects unknown keys. Every error is one line naming the file, and the line and
 //! column of the offending value where there is one: TOML syntax and type errors come from the
 //! `toml` crate's spans, and the checks done here keep the span of each value (`Spanned`) so a
-//! radius ≤ 0 or an unknown material name points at itself. The objects are in [`objects`].
+//! radius ≤ 0 or an unknown material name points at itself. A mesh file's errors and warnings
+//! are located at the object's `path` and end in the mesh file's own `path:line: problem`.
+//! The objects are in `file/objects.rs`.
 
 mod objects;
 
