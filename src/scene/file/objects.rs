@@ -113,29 +113,8 @@ impl ObjectFile {
                 })*
             };
         }
-        collect!(
-            name,
-            material,
-            materials,
-            translate,
-            rotate_deg,
-            scale,
-            center,
-            radius,
-            normal,
-            distance,
-            point,
-            positions,
-            indices,
-            normals,
-            colors,
-            count,
-            seed,
-            bounds,
-            radii,
-            path,
-            smooth_normals
-        );
+        collect!(name, material, materials, translate, rotate_deg, scale, center, radius, normal, distance, point);
+        collect!(positions, indices, normals, colors, count, seed, bounds, radii, path, smooth_normals);
         present
     }
 }
