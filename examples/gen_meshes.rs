@@ -6,11 +6,12 @@ use std::path::Path;
 fn main() -> std::io::Result<()> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes");
     std::fs::create_dir_all(&dir)?;
-    let path = dir.join("blob.ply");
-    let mut out = Vec::new();
-    let mesh = strahl::scene::procedural::blob(4);
-    strahl::io::ply::write_ascii(&mesh, &mut out, "strahl examples/gen_meshes.rs: procedural::blob(4)")?;
-    std::fs::write(&path, out)?;
-    println!("wrote {} ({} triangles, {} vertices)", path.display(), mesh.indices.len(), mesh.positions.len());
+    for (name, mesh, comment) in strahl::scene::procedural::shipped_meshes() {
+        let path = dir.join(name);
+        let mut out = Vec::new();
+        strahl::io::ply::write_ascii(&mesh, &mut out, comment)?;
+        std::fs::write(&path, out)?;
+        println!("wrote {} ({} triangles, {} vertices)", path.display(), mesh.indices.len(), mesh.positions.len());
+    }
     Ok(())
 }

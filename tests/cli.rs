@@ -2,9 +2,12 @@
 //! analytic depth of every pixel), the PNG preview, identical bytes on any thread count, and
 //! bad input refused with one line on stderr, exit status 1 and no output file.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::{TempDir, fails, strahl, text, triangle_hit};
 use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
 use glam::DVec3;
 use strahl::material::Texture;
@@ -12,46 +15,8 @@ use strahl::scene::Scene;
 
 const CHANNELS_SORTED: [&str; 11] = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "albedo.B", "albedo.G", "albedo.R"];
 
-/// A fresh directory under the system's temporary directory, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("strahl-cli-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
-    /// The names in the directory, sorted.
-    fn entries(&self) -> Vec<String> {
-        let mut v: Vec<String> =
-            std::fs::read_dir(&self.0).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
-        v.sort();
-        v
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
-}
-
-fn strahl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_strahl")).args(args).output().expect("strahl runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// Renders `scene` small (`--spp 1`: one ray through each pixel centre) into `dir`.
@@ -202,30 +167,6 @@ enum FirstHit {
     Ambiguous,
 }
 
-/// Ray–triangle (Möller–Trumbore) in f64: `Some(t)` for a hit, `None` for a miss, `Err(())`
-/// when the ray passes within `margin` (in barycentric terms) of an edge.
-fn triangle_hit(org: DVec3, dir: DVec3, [a, b, c]: [DVec3; 3], margin: f64) -> Result<Option<f64>, ()> {
-    let (e1, e2) = (b - a, c - a);
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return Ok(None);
-    }
-    let s = org - a;
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = dir.dot(q) / det;
-    let t = e2.dot(q) / det;
-    if t <= 1e-9 {
-        return Ok(None);
-    }
-    let w = 1.0 - u - v;
-    if u.abs().min(v.abs()).min(w.abs()) < margin {
-        return Err(());
-    }
-    Ok((u > 0.0 && v > 0.0 && w > 0.0).then_some(t))
-}
-
 fn triangles(scene: &Scene) -> Vec<[DVec3; 3]> {
     let mut all = Vec::new();
     for m in &scene.meshes {
@@ -266,7 +207,7 @@ fn first_hit(scene: &Scene, org: DVec3, dir: DVec3) -> FirstHit {
     }
     for tri in triangles(scene) {
         match triangle_hit(org, dir, tri, 1e-3) {
-            Err(()) => return FirstHit::Ambiguous,
+            Err(_) => return FirstHit::Ambiguous,
             Ok(Some(t)) if t < best.0 => best = (t, FirstHit::Triangle),
             Ok(_) => {}
         }
@@ -289,7 +230,7 @@ fn blocked(scene: &Scene, p: DVec3, dir: DVec3, tmax: f64) -> Option<bool> {
     }
     for tri in triangles(scene) {
         match triangle_hit(p, dir, tri, 1e-3) {
-            Err(()) => return None,
+            Err(_) => return None,
             Ok(Some(t)) => hit |= t < tmax,
             Ok(None) => {}
         }
@@ -303,7 +244,7 @@ fn depth_normal_albedo_and_alpha_match_the_analytic_scene() {
     let (w, h) = (64usize, 48usize);
     let path = scene_path("whitted.toml");
     let (exr, _, _) = render_small(&path, &dir, "2", w as u32, h as u32);
-    let mut scene = strahl::scene::load(&path).unwrap();
+    let mut scene = strahl::scene::load(&path).unwrap().scene;
     (scene.image.width, scene.image.height) = (w as u32, h as u32);
     let (_, _, ch) = read_exr(&exr);
     let (z, a) = (channel(&ch, "Z"), channel(&ch, "A"));
@@ -375,7 +316,7 @@ fn lit_floor_is_lambertian_under_a_point_and_a_directional_light() {
     let (w, h) = (64usize, 48usize);
     let path = scene_path("lecture.toml");
     let (exr, _, _) = render_small(&path, &dir, "2", w as u32, h as u32);
-    let mut scene = strahl::scene::load(&path).unwrap();
+    let mut scene = strahl::scene::load(&path).unwrap().scene;
     (scene.image.width, scene.image.height) = (w as u32, h as u32);
     let (_, _, ch) = read_exr(&exr);
     let rgb = [channel(&ch, "R"), channel(&ch, "G"), channel(&ch, "B")];
@@ -429,18 +370,6 @@ fn lit_floor_is_lambertian_under_a_point_and_a_directional_light() {
 }
 
 // ----- bad input: one line on stderr, exit status 1, no output file -----
-
-/// Runs `strahl render` with `args` in `dir`, expecting failure; returns the one stderr line.
-fn fails(dir: &TempDir, args: &[&str]) -> String {
-    let before = dir.entries();
-    let out = strahl(args);
-    let stderr = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "exit status for {args:?}; stderr {stderr:?}");
-    assert_eq!(stderr.lines().count(), 1, "one line: {stderr:?}");
-    assert!(stderr.starts_with("error: "), "{stderr:?}");
-    assert_eq!(dir.entries(), before, "nothing written for {args:?}");
-    stderr.trim_end().to_string()
-}
 
 /// Writes a scene file: the Whitted scene with `from` replaced by `to`.
 fn broken_scene(dir: &TempDir, name: &str, from: &str, to: &str) -> PathBuf {

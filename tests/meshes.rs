@@ -5,26 +5,15 @@
 //! The data folder is `../shared/data/meshes` beside the crate, or `$STRAHL_TEST_DATA`. When it
 //! is missing the data tests fail under CI (`CI` set) and are skipped loudly elsewhere.
 
-use std::path::{Path, PathBuf};
+mod common;
 
+use std::path::Path;
+
+use common::{TempDir, data_dir};
 use strahl::io::{LoadedMesh, MeshError, MeshOptions, load_mesh, ply};
 use strahl::material::Texture;
 use strahl::math::Vec3;
 use strahl::scene::procedural;
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("STRAHL_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/meshes"));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!("test data folder {} is missing (set STRAHL_TEST_DATA)", dir.display());
-    }
-    eprintln!("\n!!! SKIPPED: test data folder {} is missing (set STRAHL_TEST_DATA) !!!\n", dir.display());
-    None
-}
 
 fn load(path: &Path) -> Result<LoadedMesh, MeshError> {
     load_mesh(path, &MeshOptions::default())
@@ -374,18 +363,17 @@ fn ply_vertex_attributes() {
 #[test]
 fn gzip_compressed_obj_reads_like_the_plain_file() {
     use std::io::Write;
-    let dir = temp_dir("gz");
+    let dir = TempDir::new("gz");
     let text = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl red\nf 1 2 3 4\n";
-    write(&dir, "m.mtl", b"newmtl red\nKd 1 0 0\n");
+    dir.write("m.mtl", b"newmtl red\nKd 1 0 0\n");
     let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
     gz.write_all(text.as_bytes()).unwrap();
-    let packed = write(&dir, "quad.obj.gz", &gz.finish().unwrap());
-    let plain = write(&dir, "quad.obj", text.as_bytes());
+    let packed = dir.write("quad.obj.gz", gz.finish().unwrap());
+    let plain = dir.write("quad.obj", text.as_bytes());
     let (a, b) = (load(&packed).unwrap(), load(&plain).unwrap());
     assert_eq!(a.meshes[0].indices, vec![[0, 1, 2], [0, 2, 3]]);
     assert_eq!((a.meshes[0].positions.clone(), a.materials.clone()), (b.meshes[0].positions.clone(), b.materials));
     assert_eq!(a.materials[0].diffuse, Texture::Constant(Vec3::X));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -437,24 +425,11 @@ fn mutated_real_files_never_panic() {
     }
 }
 
-/// A folder of its own under the system's temporary directory.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("strahl-meshes-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
-}
-
 #[test]
 fn bad_input_is_one_line_naming_the_file_and_line() {
-    let dir = temp_dir("bad");
+    let dir = TempDir::new("bad");
     let err = |name: &str, bytes: &[u8]| {
-        let path = write(&dir, name, bytes);
+        let path = dir.write(name, bytes);
         let msg = load(&path).unwrap_err().to_string();
         assert!(!msg.contains('\n'), "{msg}");
         msg.strip_prefix(&path.display().to_string())
@@ -498,15 +473,14 @@ fn bad_input_is_one_line_naming_the_file_and_line() {
     assert_eq!(err("range.ply", ascii.as_bytes()), ":14: face index 4 out of range (4 vertices)");
     assert_eq!(err("gz.ply.gz", b"ply\n"), ": named .gz but not gzip-compressed");
     assert_eq!(err("x.stl", b"solid"), ": unknown mesh format: expected a .obj or .ply file (optionally .gz)");
-    let missing = dir.join("missing.obj");
+    let missing = dir.path("missing.obj");
     assert!(load(&missing).unwrap_err().to_string().starts_with(&format!("{}: ", missing.display())));
     // A missing MTL library is a warning and a default material, not a failure.
-    let path = write(&dir, "nomtl.obj", b"mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n");
+    let path = dir.write("nomtl.obj", b"mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n");
     let l = load(&path).unwrap();
     assert_eq!((l.materials.len(), l.meshes[0].material), (1, 0));
     assert_eq!(l.warnings.len(), 2, "{:?}", l.warnings);
     assert!(l.warnings[0].contains(":1: material library 'nowhere.mtl' not found"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The area of a polygon in its plane (half the Newell normal's length) and its outline
@@ -572,12 +546,11 @@ fn concave_polygons_are_tiled_exactly() {
     for i in 1..=corners.len() {
         obj += &format!(" {i}");
     }
-    let dir = temp_dir("concave");
-    let path = write(&dir, "comb.obj", obj.as_bytes());
+    let dir = TempDir::new("concave");
+    let path = dir.write("comb.obj", obj.as_bytes());
     check_tiles_the_polygon(&path, &corners);
     assert_eq!(corners.len(), 24);
     assert!((polygon_area(&corners) - 23.0).abs() < 1e-3, "{}", polygon_area(&corners));
-    let _ = std::fs::remove_dir_all(&dir);
 
     // assimp's concave test polygon (66 corners).
     let Some(root) = data_dir() else { return };
@@ -599,15 +572,22 @@ fn concave_polygons_are_tiled_exactly() {
 }
 
 #[test]
-fn the_shipped_blob_mesh_is_up_to_date_and_loads() {
-    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/blob.ply");
-    let mut fresh = Vec::new();
-    ply::write_ascii(&procedural::blob(4), &mut fresh, "strahl examples/gen_meshes.rs: procedural::blob(4)").unwrap();
-    let on_disk = std::fs::read(&committed).expect("scenes/meshes/blob.ply (run `cargo run --example gen_meshes`)");
-    assert!(on_disk == fresh, "scenes/meshes/blob.ply is stale: run `cargo run --example gen_meshes`");
-    let l = load(&committed).unwrap();
+fn the_shipped_meshes_are_up_to_date_and_load() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes");
+    for (name, mesh, comment) in procedural::shipped_meshes() {
+        let mut fresh = Vec::new();
+        ply::write_ascii(&mesh, &mut fresh, comment).unwrap();
+        let on_disk = std::fs::read(dir.join(name)).expect("scenes/meshes/ (run `cargo run --example gen_meshes`)");
+        assert!(on_disk == fresh, "scenes/meshes/{name} is stale: run `cargo run --example gen_meshes`");
+    }
+    let l = load(&dir.join("blob.ply")).unwrap();
     let m = &l.meshes[0];
     assert_eq!((l.triangle_count(), m.positions.len()), (5120, 2562));
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
     assert!(m.normals.as_ref().unwrap().iter().all(|n| (n.length() - 1.0).abs() < 1e-5));
+    // The coarse blob has no normals of its own: flat unless smooth normals are asked for.
+    let l = load(&dir.join("blob-coarse.ply")).unwrap();
+    assert_eq!((l.triangle_count(), l.meshes[0].positions.len(), l.meshes[0].normals.is_none()), (320, 162, true));
+    let s = load_mesh(&dir.join("blob-coarse.ply"), &MeshOptions { smooth_normals: true }).unwrap();
+    assert!(s.meshes[0].normals.as_ref().unwrap().iter().all(|n| (n.length() - 1.0).abs() < 1e-5));
 }

@@ -13,7 +13,7 @@ use strahl::scene::{Scene, SceneError, from_toml_str};
 const CAMERA: &str = "[camera]\neye = [0, 1, 5]\ntarget = [0, 0, 0]\nfov_deg = 40\n";
 
 fn parse(text: &str) -> Result<Scene, SceneError> {
-    from_toml_str(text, Path::new("scenes/test.toml"))
+    from_toml_str(text, Path::new("scenes/test.toml")).map(|l| l.scene)
 }
 
 /// A scene with the standard camera, a material `m`, and `rest`.
@@ -236,19 +236,19 @@ fn every_shipped_scene_loads() {
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "toml") {
-            let s = strahl::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            let s = strahl::scene::load(&path).unwrap_or_else(|e| panic!("{e}")).scene;
             assert!(!s.lights.is_empty() && !s.materials.is_empty(), "{}", path.display());
             names.push(path.file_stem().unwrap().to_string_lossy().into_owned());
         }
     }
     names.sort();
-    assert_eq!(names, ["cornell", "lecture", "spheres", "whitted"]);
-    let cornell = strahl::scene::load(dir.join("cornell.toml")).unwrap();
+    assert_eq!(names, ["blob", "cornell", "lecture", "spheres", "whitted"]);
+    let cornell = strahl::scene::load(dir.join("cornell.toml")).unwrap().scene;
     // The published floor corner (549.6, 0, 559.2) mm, in metres.
     assert!(close(cornell.meshes[0].positions[3], Vec3::new(0.5496, 0.0, 0.5592)));
     assert_eq!(cornell.spheres.len(), 2);
     assert!((cornell.spheres[0].radius - 0.1).abs() < 1e-7);
-    assert!(strahl::scene::load(dir.join("spheres.toml")).unwrap().spheres.len() >= 1000);
+    assert!(strahl::scene::load(dir.join("spheres.toml")).unwrap().scene.spheres.len() >= 1000);
 }
 
 // ----- errors: one line, the file, the line and column, the problem -----
@@ -397,9 +397,10 @@ fn missing_and_conflicting_keys() {
 }
 
 #[test]
-fn mesh_files_are_reserved_for_the_obj_and_ply_loaders() {
-    let (e, line) = error_in("[[objects]]\ntype = \"mesh\"\npath = \"models/bunny.obj\" # <-\nmaterial = \"m\"\n");
-    assert_at(&e, line, "object 0 (mesh): models/bunny.obj: loading obj files is not implemented yet");
+fn material_names_cannot_contain_a_slash() {
+    // `FILE/NAME` is how the materials of mesh files are named.
+    let (e, line) = error_in("[materials.\"a/b\"] # <-\ndiffuse = 0.5\n");
+    assert_at(&e, line, "material 'a/b': a material name cannot contain '/' (kept for the materials of mesh files)");
 }
 
 #[test]
@@ -414,7 +415,7 @@ fn the_documented_example_is_a_valid_scene() {
     let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/scene-format.md")).unwrap();
     let start = doc.find("```toml\n").expect("a toml example") + "```toml\n".len();
     let example = &doc[start..start + doc[start..].find("```").unwrap()];
-    let s = from_toml_str(example, Path::new("docs/scene-format.md")).unwrap_or_else(|e| panic!("{e}"));
+    let s = from_toml_str(example, Path::new("docs/scene-format.md")).unwrap_or_else(|e| panic!("{e}")).scene;
     assert_eq!((s.image.width, s.image.height, s.image.spp), (640, 480, 4));
     assert_eq!((s.materials.len(), s.lights.len(), s.planes.len(), s.meshes.len()), (4, 2, 1, 1));
     assert_eq!(s.spheres.len(), 1 + 5000);

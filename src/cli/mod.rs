@@ -1,8 +1,11 @@
-//! The `strahl` command's subcommands, one file each (`render.rs`; `info`, `crosscheck` and
-//! `bench` are added the same way), and what they share: the thread pool and the Embree
-//! device. Errors are `anyhow` with context; `main` prints them as one line.
+//! The `strahl` command's subcommands, one file each (`render.rs`, `info.rs`; `crosscheck` and
+//! `bench` are added the same way), and what they share: loading the scene, the thread pool and
+//! the Embree device. Errors are `anyhow` with context; `main` prints them as one line.
 
+mod info;
 mod render;
+
+use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -19,13 +22,25 @@ pub struct Cli {
 enum Command {
     /// Render a scene file to OpenEXR (and optionally a PNG preview).
     Render(render::RenderArgs),
+    /// Load a scene and describe it: objects, counts, bounds, load time.
+    Info(info::InfoArgs),
 }
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
+        Command::Info(args) => info::run(args),
     }
+}
+
+/// Loads the scene file at `path` and prints its warnings on stderr, one `warning: …` line each.
+fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
+    let loaded = strahl::scene::load(path)?;
+    for warning in &loaded.warnings {
+        eprintln!("warning: {warning}");
+    }
+    Ok(loaded)
 }
 
 /// The number of threads to use: `requested`, or one per core.

@@ -1,7 +1,7 @@
-//! `strahl render SCENE -o OUT.exr [--png OUT.png]`: loads the scene, applies the command-line
-//! overrides, checks the outputs can be written, builds Embree's BVH, renders on a pool of
-//! `--threads` workers with a progress bar, writes the EXR (and PNG) atomically and prints a
-//! summary: resolution, samples, rays by kind, time, Mrays/s.
+//! `strahl render SCENE -o OUT.exr [--png OUT.png]`: loads the scene (its warnings on stderr),
+//! applies the command-line overrides, checks the outputs can be written, builds Embree's BVH,
+//! renders on a pool of `--threads` workers with a progress bar, writes the EXR (and PNG)
+//! atomically and prints a summary: resolution, samples, rays by kind, time, Mrays/s.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -74,7 +74,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("--exposure {} is not a finite number of stops", args.exposure);
     }
 
-    let mut scene = strahl::scene::load(&args.scene)?;
+    let mut scene = super::load_scene(&args.scene)?.scene;
     let image = &mut scene.image;
     image.width = args.width.unwrap_or(image.width);
     image.height = args.height.unwrap_or(image.height);

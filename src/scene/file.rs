@@ -1,9 +1,12 @@
-//! Scene files: the TOML schema (see `docs/scene-format.md`) and its loading into a [`Scene`].
+//! Scene files: the TOML schema (see `docs/scene-format.md`) and its loading, with the mesh
+//! files it names, into a [`Loaded`] scene.
 //!
 //! Every table rejects unknown keys. Every error is one line naming the file, and the line and
 //! column of the offending value where there is one: TOML syntax and type errors come from the
 //! `toml` crate's spans, and the checks done here keep the span of each value (`Spanned`) so a
-//! radius ≤ 0 or an unknown material name points at itself. The objects are in [`objects`].
+//! radius ≤ 0 or an unknown material name points at itself. A mesh file's errors and warnings
+//! are located at the object's `path` and end in the mesh file's own `path:line: problem`.
+//! The objects are in `file/objects.rs`.
 
 mod objects;
 
@@ -16,6 +19,7 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use toml::Spanned;
 
+pub use objects::ObjectSummary;
 use objects::{ObjectContext, ObjectFile};
 
 use super::{CameraSpec, ImageSpec, Scene};
@@ -42,16 +46,28 @@ pub enum SceneError {
     Invalid { path: PathBuf, message: String },
 }
 
-/// Loads the scene file at `path`.
-pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+/// A loaded scene file: the scene, what the user should be told about it, and what each of its
+/// objects added.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub scene: Scene,
+    /// One line each, `scene.toml:LINE:COLUMN: object 'name' (mesh): mesh-file:LINE: …`: a
+    /// missing MTL library, degenerate triangles dropped, statements skipped in a mesh file.
+    pub warnings: Vec<String>,
+    /// One per `[[objects]]` entry, in file order.
+    pub objects: Vec<ObjectSummary>,
+}
+
+/// Loads the scene file at `path`, and the mesh files it names.
+pub fn load(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read { path: path.into(), source })?;
     from_toml_str(&text, path)
 }
 
-/// Parses a scene from TOML text; `path` names it in errors, and relative paths in it (mesh
-/// files) are resolved against `path`'s directory.
-pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+/// Parses a scene from TOML text; `path` names it in errors and warnings, and relative paths in
+/// it (mesh files) are resolved against `path`'s directory.
+pub fn from_toml_str(text: &str, path: &Path) -> Result<Loaded, SceneError> {
     let locate = |problem: Problem| match problem.span {
         Some(span) => {
             let (line, column) = line_column(text, span.start);
@@ -62,7 +78,9 @@ pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
     let file: SceneFile = toml::from_str(text)
         .map_err(|e| locate(Problem { span: e.span(), message: e.message().trim().replace('\n', "; ") }))?;
     let base = path.parent().unwrap_or(Path::new(""));
-    file.into_scene(base).map_err(locate)
+    let (scene, warnings, objects) = file.into_scene(base).map_err(locate)?;
+    let warnings = warnings.into_iter().map(|w| locate(w).to_string()).collect();
+    Ok(Loaded { scene, warnings, objects })
 }
 
 /// 1-based line and column (in characters) of byte `offset` in `text`.
@@ -306,7 +324,8 @@ fn required<'a, T>(value: &'a Option<Spanned<T>>, what: &str, span: &Range<usize
 }
 
 impl SceneFile {
-    fn into_scene(self, base: &Path) -> Result<Scene, Problem> {
+    /// The scene, the warnings of its mesh files, and what each object added.
+    fn into_scene(self, base: &Path) -> Result<(Scene, Vec<Problem>, Vec<ObjectSummary>), Problem> {
         let camera = self.camera.get_ref().to_spec(&self.camera.span())?;
         let image = match &self.image {
             Some(image) => image.get_ref().to_spec(&image.span())?,
@@ -316,6 +335,10 @@ impl SceneFile {
         let mut material_ids = BTreeMap::new();
         for (i, (name, m)) in self.materials.iter().enumerate() {
             let material = m.get_ref().to_material(name).map_err(|p| prefix(p, &format!("material '{name}'")))?;
+            if name.contains('/') {
+                let message = "a material name cannot contain '/' (kept for the materials of mesh files)";
+                return Err(at(m.span(), format!("material '{name}': {message}")));
+            }
             scene.materials.push(material);
             material_ids.insert(name.as_str(), i as u32);
         }
@@ -323,12 +346,15 @@ impl SceneFile {
             let l = light.get_ref().to_light(&light.span()).map_err(|p| prefix(p, &format!("light {i}")))?;
             scene.lights.push(l);
         }
+        let (mut warnings, mut objects) = (Vec::new(), Vec::new());
         for (i, object) in self.objects.iter().enumerate() {
             let ctx = ObjectContext { span: object.span(), index: i, materials: &material_ids, base };
             let o = object.get_ref();
-            o.add_to(&mut scene, &ctx).map_err(|p| prefix(p, &o.label(i)))?;
+            let (summary, object_warnings) = o.add_to(&mut scene, &ctx).map_err(|p| prefix(p, &o.label(i)))?;
+            warnings.extend(object_warnings.into_iter().map(|w| prefix(w, &o.label(i))));
+            objects.push(summary);
         }
-        Ok(scene)
+        Ok((scene, warnings, objects))
     }
 }
 

@@ -1,15 +1,16 @@
 //! The scene as plain data that both backends and the integrator read: world-space triangle
 //! meshes, spheres and planes, materials, lights, the camera and the image settings.
 //!
-//! Loading (TOML, OBJ, PLY) produces a [`Scene`]; nothing downstream knows which file format
-//! it came from.
+//! Loading a scene file ([`load`]: TOML, and the OBJ and PLY files it names) produces a
+//! [`Scene`], with the warnings to show and a summary of each object ([`Loaded`]); nothing
+//! downstream knows which file format the geometry came from.
 
 pub mod file;
 pub mod mesh;
 pub mod procedural;
 pub mod transform;
 
-pub use file::{SceneError, from_toml_str, load};
+pub use file::{Loaded, ObjectSummary, SceneError, from_toml_str, load};
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};

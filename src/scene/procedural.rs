@@ -94,6 +94,18 @@ pub fn blob(subdivisions: u32) -> Mesh {
     m
 }
 
+/// The meshes the shipped scenes load from `scenes/meshes/`, as `(file name, mesh, PLY comment)`:
+/// the smooth blob with its normals, and a coarse blob without normals (flat facets, or smooth
+/// normals when a scene asks for them). `examples/gen_meshes.rs` writes them.
+pub fn shipped_meshes() -> Vec<(&'static str, Mesh, &'static str)> {
+    let mut coarse = blob(2);
+    coarse.normals = None;
+    vec![
+        ("blob.ply", blob(4), "strahl examples/gen_meshes.rs: procedural::blob(4)"),
+        ("blob-coarse.ply", coarse, "strahl examples/gen_meshes.rs: procedural::blob(2) without normals"),
+    ]
+}
+
 fn uniform_in(rng: &mut Pcg64Mcg, b: &Aabb) -> Vec3 {
     Vec3::new(
         rng.random_range(b.min.x..=b.max.x),

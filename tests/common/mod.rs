@@ -1,7 +1,11 @@
-//! Helpers shared by the renderer tests: an Embree backend for a scene, a render call, and the
-//! lecture's pinhole camera written out again in f64 as an independent reference.
+//! Helpers shared by the tests: an Embree backend for a scene, a render call, the lecture's
+//! pinhole camera and ray–triangle intersection written out again in f64 as independent
+//! references, the shared mesh data folder, temporary folders, and running the `strahl` binary.
 
 #![allow(dead_code)] // each test file uses a different subset
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 use glam::DVec3;
 use strahl::embree::{BuildOptions, Device, EmbreeAccel};
@@ -49,4 +53,108 @@ pub fn same_bits(a: &Film, b: &Film) -> bool {
         && a.depth.iter().map(|x| x.to_bits()).eq(b.depth.iter().map(|x| x.to_bits()))
         && bits3(&a.normal) == bits3(&b.normal)
         && bits3(&a.albedo) == bits3(&b.albedo)
+}
+
+/// Ray–triangle (Möller–Trumbore) in f64: `Ok(Some(t))` for a hit, `Ok(None)` for a miss,
+/// `Err(t)` when the ray meets the triangle's plane at `t` within `margin` (in barycentric
+/// terms) of the triangle's outline, where f32 and f64 may disagree on hit or miss.
+pub fn triangle_hit(org: DVec3, dir: DVec3, [a, b, c]: [DVec3; 3], margin: f64) -> Result<Option<f64>, f64> {
+    let (e1, e2) = (b - a, c - a);
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return Ok(None);
+    }
+    let s = org - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = dir.dot(q) / det;
+    let t = e2.dot(q) / det;
+    if t <= 1e-9 {
+        return Ok(None);
+    }
+    // > 0 inside the triangle, < 0 outside.
+    let inside_by = u.min(v).min(1.0 - u - v);
+    if inside_by.abs() < margin {
+        return Err(t);
+    }
+    Ok((inside_by > 0.0).then_some(t))
+}
+
+/// The shared test meshes: `../shared/data/meshes` beside the crate, or `$STRAHL_TEST_DATA`.
+/// When the folder is missing, a test that needs it fails under CI (`CI` set) and is skipped
+/// loudly elsewhere (`None`).
+pub fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("STRAHL_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/meshes"));
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    if std::env::var_os("CI").is_some() {
+        panic!("test data folder {} is missing (set STRAHL_TEST_DATA)", dir.display());
+    }
+    eprintln!("\n!!! SKIPPED: test data folder {} is missing (set STRAHL_TEST_DATA) !!!\n", dir.display());
+    None
+}
+
+/// A fresh directory under the system's temporary directory, removed on drop.
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub fn new(tag: &str) -> Self {
+        // The test binary's name keeps test files that use the same tag apart.
+        let dir =
+            std::env::temp_dir().join(format!("strahl-{}-{tag}-{}", env!("CARGO_CRATE_NAME"), std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    /// Writes `bytes` to the file `name` in the directory; returns its path.
+    pub fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+        let path = self.path(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+
+    /// The names in the directory, sorted.
+    pub fn entries(&self) -> Vec<String> {
+        let mut v: Vec<String> =
+            std::fs::read_dir(&self.0).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Runs the `strahl` binary with `args`.
+pub fn strahl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strahl")).args(args).output().expect("strahl runs")
+}
+
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Runs `strahl` with `args`, expecting it to fail without writing anything into `dir`: exit
+/// status 1 and one line `error: …` on stderr, which it returns (without the line break).
+pub fn fails(dir: &TempDir, args: &[&str]) -> String {
+    let before = dir.entries();
+    let out = strahl(args);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "exit status for {args:?}; stderr {stderr:?}");
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr:?}");
+    assert!(stderr.starts_with("error: "), "{stderr:?}");
+    assert_eq!(dir.entries(), before, "nothing written for {args:?}");
+    stderr.trim_end().to_string()
 }

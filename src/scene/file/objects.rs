@@ -1,13 +1,13 @@
 //! The `[[objects]]` of a scene file: spheres, planes, inline triangles, seeded random sphere
-//! fields and (reserved) mesh files, each with a material by name and a transform.
+//! fields and mesh files (OBJ, PLY), each with a material by name and a transform.
 //!
 //! One flat table type with a `type` key rather than a serde-tagged enum, because a tagged
 //! enum buffers its content and loses the spans; the keys a type does not take are rejected
 //! by hand ([`ObjectKind::fields`]).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use serde::Deserialize;
@@ -15,6 +15,7 @@ use toml::Spanned;
 
 use super::{MAX_RANDOM_SPHERES, Problem, Triple, V3, at, direction, fmt3, is_finite32, number, point, required};
 use crate::geometry::Sphere;
+use crate::io::{MeshOptions, load_mesh};
 use crate::math::{Aabb, Vec3};
 use crate::scene::transform::Transform;
 use crate::scene::{Mesh, Scene, procedural};
@@ -62,7 +63,7 @@ impl ObjectKind {
                 "bounds",
                 "radii",
             ],
-            ObjectKind::Mesh => &["name", "material", "translate", "rotate_deg", "scale", "path"],
+            ObjectKind::Mesh => &["name", "material", "translate", "rotate_deg", "scale", "path", "smooth_normals"],
         }
     }
 }
@@ -98,6 +99,7 @@ pub(super) struct ObjectFile {
     radii: Option<Spanned<[f64; 2]>>,
     // mesh
     path: Option<Spanned<String>>,
+    smooth_normals: Option<Spanned<bool>>,
 }
 
 impl ObjectFile {
@@ -111,10 +113,8 @@ impl ObjectFile {
                 })*
             };
         }
-        collect!(
-            name, material, materials, translate, rotate_deg, scale, center, radius, normal, distance, point,
-            positions, indices, normals, colors, count, seed, bounds, radii, path
-        );
+        collect!(name, material, materials, translate, rotate_deg, scale, center, radius, normal, distance, point);
+        collect!(positions, indices, normals, colors, count, seed, bounds, radii, path, smooth_normals);
         present
     }
 }
@@ -138,6 +138,24 @@ impl ObjectContext<'_> {
     }
 }
 
+/// What one `[[objects]]` entry added to the scene (for `strahl info`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectSummary {
+    /// The object's `name`, if it has one.
+    pub name: Option<String>,
+    /// Its `type`: `sphere`, `plane`, `triangles`, `random_spheres` or `mesh`.
+    pub kind: &'static str,
+    /// The file a `mesh` object loaded, resolved against the scene file's folder.
+    pub file: Option<PathBuf>,
+    pub triangles: usize,
+    pub spheres: usize,
+    pub planes: usize,
+    /// The names of the materials its primitives use, in the scene's material order.
+    pub materials: Vec<String>,
+    /// Triangles of zero area in the mesh file, dropped (not in `triangles`).
+    pub degenerate_dropped: usize,
+}
+
 impl ObjectFile {
     /// How errors name this object: `object 3 (sphere)` or `object 'ball' (sphere)`.
     pub(super) fn label(&self, index: usize) -> String {
@@ -147,8 +165,42 @@ impl ObjectFile {
         }
     }
 
-    /// Checks the object and adds what it makes to `scene`.
-    pub(super) fn add_to(&self, scene: &mut Scene, ctx: &ObjectContext) -> Result<(), Problem> {
+    /// Checks the object, adds what it makes to `scene`, and says what it added. The warnings
+    /// of a mesh file come back as problems at the object's `path`.
+    pub(super) fn add_to(
+        &self,
+        scene: &mut Scene,
+        ctx: &ObjectContext,
+    ) -> Result<(ObjectSummary, Vec<Problem>), Problem> {
+        let (meshes, spheres, planes) = (scene.meshes.len(), scene.spheres.len(), scene.planes.len());
+        let report = self.add_geometry(scene, ctx)?;
+        let mut used = BTreeSet::new();
+        for m in &scene.meshes[meshes..] {
+            match &m.triangle_materials {
+                Some(per_triangle) => used.extend(per_triangle.iter().copied()),
+                None => {
+                    used.insert(m.material);
+                }
+            }
+        }
+        used.extend(scene.spheres[spheres..].iter().map(|s| s.material));
+        used.extend(scene.planes[planes..].iter().map(|p| p.material));
+        let summary = ObjectSummary {
+            name: self.name.as_ref().map(|n| n.get_ref().clone()),
+            kind: self.kind.get_ref().name(),
+            file: report.file,
+            triangles: scene.meshes[meshes..].iter().map(|m| m.indices.len()).sum(),
+            spheres: scene.spheres.len() - spheres,
+            planes: scene.planes.len() - planes,
+            materials: used.into_iter().map(|i| scene.materials[i as usize].name.clone()).collect(),
+            degenerate_dropped: report.degenerate_dropped,
+        };
+        let span = self.path.as_ref().map_or_else(|| ctx.span.clone(), |p| p.span());
+        Ok((summary, report.warnings.into_iter().map(|w| at(span.clone(), w)).collect()))
+    }
+
+    /// Checks the object and adds its primitives to `scene`.
+    fn add_geometry(&self, scene: &mut Scene, ctx: &ObjectContext) -> Result<FileReport, Problem> {
         let kind = *self.kind.get_ref();
         if let Some((key, span)) = self.fields().into_iter().find(|(key, _)| !kind.fields().contains(key)) {
             let takes = kind.fields().join(", ");
@@ -206,15 +258,19 @@ impl ObjectFile {
             ObjectKind::Mesh => {
                 let path = required(&self.path, "path", &ctx.span)?;
                 let material = self.material.as_ref().map(|m| ctx.material(m)).transpose()?;
-                let meshes = load_mesh_file(&ctx.base.join(path.get_ref()), material, scene)
-                    .map_err(|m| at(path.span(), format!("{}: {m}", path.get_ref())))?;
+                let options =
+                    MeshOptions { smooth_normals: self.smooth_normals.as_ref().is_some_and(|s| *s.get_ref()) };
+                let file = ctx.base.join(path.get_ref());
+                let (meshes, report) =
+                    load_mesh_file(&file, &options, material, scene).map_err(|m| at(path.span(), m))?;
                 for mut mesh in meshes {
                     transform.apply_to_mesh(&mut mesh);
                     scene.meshes.push(mesh);
                 }
+                return Ok(report);
             }
         }
-        Ok(())
+        Ok(FileReport::default())
     }
 
     fn transform(&self) -> Result<Transform, Problem> {
@@ -310,14 +366,51 @@ impl ObjectFile {
     }
 }
 
+/// What a mesh file reported while loading.
+#[derive(Default)]
+struct FileReport {
+    file: Option<PathBuf>,
+    /// One line each, naming the mesh file (and line).
+    warnings: Vec<String>,
+    degenerate_dropped: usize,
+}
+
 /// Loads the triangle meshes of an OBJ or PLY file for a `type = "mesh"` object, in the file's
-/// own coordinates (the object's transform is applied afterwards).
+/// own coordinates (the object's transform is applied afterwards), with their materials.
 ///
-/// `material`, when given, is the material of every triangle; otherwise the file's own
-/// materials are added to `scene.materials` and referenced by index. Not implemented yet: the
-/// OBJ/PLY readers land in `crate::io`, and this is the one place that calls them.
-fn load_mesh_file(path: &Path, material: Option<u32>, scene: &mut Scene) -> Result<Vec<Mesh>, String> {
-    let _ = (material, &scene.materials);
-    let kind = path.extension().and_then(|e| e.to_str()).unwrap_or("mesh");
-    Err(format!("loading {kind} files is not implemented yet"))
+/// `material`, when given, is the material of every triangle (the file's materials are not
+/// used). Otherwise the file's materials are appended to `scene.materials` under the names
+/// `FILE/NAME` (`CornellBox-Original.obj/leftWall`; a scene's own material names cannot
+/// contain `/`, so these never collide with them), and the meshes' material indices, which
+/// index the file's list, are moved past the scene's materials. The error is the mesh
+/// loader's one line, `path:line: problem`.
+fn load_mesh_file(
+    path: &Path,
+    options: &MeshOptions,
+    material: Option<u32>,
+    scene: &mut Scene,
+) -> Result<(Vec<Mesh>, FileReport), String> {
+    let loaded = load_mesh(path, options).map_err(|e| e.to_string())?;
+    let report = FileReport {
+        file: Some(path.to_owned()),
+        warnings: loaded.warnings,
+        degenerate_dropped: loaded.degenerate_dropped,
+    };
+    let mut meshes = loaded.meshes;
+    match material {
+        Some(material) => meshes.iter_mut().for_each(|m| (m.material, m.triangle_materials) = (material, None)),
+        None => {
+            let offset = scene.materials.len() as u32;
+            let file = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into());
+            for mut m in loaded.materials {
+                m.name = format!("{file}/{}", m.name);
+                scene.materials.push(m);
+            }
+            for m in &mut meshes {
+                m.material += offset;
+                m.triangle_materials.iter_mut().flatten().for_each(|t| *t += offset);
+            }
+        }
+    }
+    Ok((meshes, report))
 }

@@ -1,0 +1,83 @@
+//! `strahl info SCENE`: loads a scene (its warnings on stderr) and prints what it holds, one
+//! item per line in a fixed order: each object (name, type, mesh file, primitive count,
+//! materials), then the totals, the bounding box, the degenerate triangles dropped from mesh
+//! files and the time loading took.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use strahl::scene::{Loaded, ObjectSummary};
+
+/// Arguments of `strahl info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// The scene file (TOML; see docs/scene-format.md).
+    scene: PathBuf,
+}
+
+pub fn run(args: InfoArgs) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let loaded = super::load_scene(&args.scene)?;
+    let load_seconds = start.elapsed().as_secs_f64();
+    print!("{}", describe(&args.scene.display().to_string(), &loaded, load_seconds));
+    Ok(())
+}
+
+/// The report, one `key: value` line per item.
+fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
+    let Loaded { scene, objects, .. } = loaded;
+    let mut lines = vec![format!("scene: {name}")];
+    lines.extend(objects.iter().enumerate().map(|(i, o)| object_line(i, o)));
+    let bounds = scene.bounds();
+    let bounds = if bounds.is_empty() {
+        "none (no meshes or spheres; planes are unbounded)".to_string()
+    } else {
+        format!("min {:.4} max {:.4} (meshes and spheres; planes are unbounded)", bounds.min, bounds.max)
+    };
+    let dropped: usize = objects.iter().map(|o| o.degenerate_dropped).sum();
+    lines.extend([
+        format!("objects: {}", objects.len()),
+        format!("triangles: {}", scene.triangle_count()),
+        format!("spheres: {}", scene.spheres.len()),
+        format!("planes: {}", scene.planes.len()),
+        format!("lights: {}", scene.lights.len()),
+        format!("materials: {}", scene.materials.len()),
+        format!("bounds: {bounds}"),
+        format!("degenerate triangles dropped: {dropped}"),
+        format!("load time: {:.1} ms", load_seconds * 1e3),
+    ]);
+    lines.iter().map(|l| format!("{l}\n")).collect()
+}
+
+/// Most material names listed for one object.
+const MATERIALS_LISTED: usize = 8;
+
+/// `object 1 'bunny': mesh ../data/bun.ply, 69451 triangles, material clay`.
+fn object_line(index: usize, o: &ObjectSummary) -> String {
+    let mut line = format!("object {index}");
+    if let Some(name) = &o.name {
+        line += &format!(" '{name}'");
+    }
+    line += &format!(": {}", o.kind);
+    if let Some(file) = &o.file {
+        line += &format!(" {}", file.display());
+    }
+    // A sphere or plane object makes exactly one; the others say how many.
+    let counts = [(o.triangles, "triangle"), (o.spheres, "sphere"), (o.planes, "plane")];
+    let counted = !matches!(o.kind, "sphere" | "plane");
+    for (n, what) in counts.into_iter().filter(|&(n, _)| counted && n > 0) {
+        line += &format!(", {n} {what}{}", if n == 1 { "" } else { "s" });
+    }
+    if o.degenerate_dropped > 0 {
+        line += &format!(" ({} degenerate dropped)", o.degenerate_dropped);
+    }
+    let listed = o.materials.iter().take(MATERIALS_LISTED).map(String::as_str).collect::<Vec<_>>().join(", ");
+    line += &match o.materials.len() {
+        0 => String::new(),
+        1 => format!(", material {listed}"),
+        n if n <= MATERIALS_LISTED => format!(", materials {listed}"),
+        n => format!(", materials {listed}, … ({n} in all)"),
+    };
+    line
+}

@@ -1,0 +1,116 @@
+//! `strahl info SCENE` through the binary: one line per object (name, type, mesh file, count,
+//! materials) and per total, the bounding box, the degenerate triangles dropped and the load
+//! time, in a fixed order; warnings on stderr; errors as one line with exit status 1.
+
+mod common;
+
+use std::path::Path;
+
+use common::{TempDir, data_dir, fails, strahl, text};
+
+/// The lines `strahl info` prints for `scene` (which must succeed), without the load time,
+/// which it checks is a number of milliseconds; and its stderr.
+fn info(scene: &Path) -> (Vec<String>, String) {
+    let out = strahl(&["info", scene.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mut lines: Vec<String> = text(&out.stdout).lines().map(String::from).collect();
+    let last = lines.pop().unwrap();
+    let ms = last.strip_prefix("load time: ").and_then(|l| l.strip_suffix(" ms")).expect("the load time comes last");
+    assert!(ms.parse::<f64>().is_ok_and(|ms| ms >= 0.0), "{last}");
+    (lines, text(&out.stderr))
+}
+
+fn shipped(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+}
+
+#[test]
+fn the_whitted_scene_with_the_bounds_of_its_spheres() {
+    let scene = shipped("whitted.toml");
+    let (lines, stderr) = info(&scene);
+    // Bounds: the mirror ball (−1.9, 0.7, −2.4) r 1.2 and the glass ball (0.3, 0.4, 0.6) r 0.9.
+    let want = [
+        format!("scene: {}", scene.display()),
+        "object 0 'floor': plane, material checker".into(),
+        "object 1 'mirror ball': sphere, material mirror".into(),
+        "object 2 'glass ball': sphere, material glass".into(),
+        "objects: 3".into(),
+        "triangles: 0".into(),
+        "spheres: 2".into(),
+        "planes: 1".into(),
+        "lights: 1".into(),
+        "materials: 3".into(),
+        "bounds: min [-3.1000, -0.5000, -3.6000] max [1.2000, 1.9000, 1.5000] (meshes and spheres; planes are unbounded)"
+            .into(),
+        "degenerate triangles dropped: 0".into(),
+    ];
+    assert_eq!(lines, want);
+    assert_eq!(stderr, "");
+}
+
+#[test]
+fn the_blob_scene_loads_its_generated_meshes() {
+    let scene = shipped("blob.toml");
+    let (lines, stderr) = info(&scene);
+    // Icospheres of 20·4² and 20·4⁴ triangles.
+    let dir = shipped("meshes");
+    let want_start = [
+        format!("scene: {}", scene.display()),
+        "object 0 'floor': plane, material checker".into(),
+        format!("object 1 'flat blob': mesh {}, 320 triangles, material clay", dir.join("blob-coarse.ply").display()),
+        format!("object 2 'smooth blob': mesh {}, 320 triangles, material clay", dir.join("blob-coarse.ply").display()),
+        format!("object 3 'glass blob': mesh {}, 5120 triangles, material glass", dir.join("blob.ply").display()),
+        "objects: 4".into(),
+        "triangles: 5760".into(),
+        "spheres: 0".into(),
+        "planes: 1".into(),
+        "lights: 1".into(),
+        "materials: 3".into(),
+    ];
+    assert_eq!(lines[..want_start.len()], want_start);
+    assert!(lines[want_start.len()].starts_with("bounds: min ["), "{lines:?}");
+    assert_eq!(lines[want_start.len() + 1..], ["degenerate triangles dropped: 0"]);
+    assert_eq!(stderr, "");
+}
+
+#[test]
+fn the_cornell_box_obj_and_a_mesh_with_degenerate_triangles() {
+    let Some(data) = data_dir() else { return };
+    let dir = TempDir::new("cornell");
+    let head = "[camera]\neye = [0, 1, 4]\ntarget = [0, 1, 0]\nfov_deg = 40\n";
+    let cornell = data.join("cornell/CornellBox-Original.obj");
+    let scene = dir.write("box.toml", format!("{head}[[objects]]\ntype = \"mesh\"\npath = {:?}\n", cornell.display()));
+    let (lines, stderr) = info(&scene);
+    let materials = ["leftWall", "rightWall", "floor", "ceiling", "backWall", "shortBox", "tallBox", "light"]
+        .map(|m| format!("CornellBox-Original.obj/{m}"))
+        .join(", ");
+    assert_eq!(lines[1], format!("object 0: mesh {}, 36 triangles, materials {materials}", cornell.display()));
+    assert!(lines.contains(&"materials: 8".into()) && lines.contains(&"lights: 0".into()), "{lines:?}");
+    // The corners of the box in the OBJ: x from −1.02 to 1, y from 0 to 1.99, z from −1.04 to 0.99.
+    assert!(lines.contains(&"bounds: min [-1.0200, 0.0000, -1.0400] max [1.0000, 1.9900, 0.9900] (meshes and spheres; planes are unbounded)".into()), "{lines:?}");
+    assert_eq!(stderr, "");
+
+    // The spider drops 56 of its 1,368 triangles (zero area): counted, and warned about.
+    let spider = data.join("edge-cases/assimp-obj/spider.obj");
+    let scene = dir.write(
+        "spider.toml",
+        format!("{head}[materials.m]\ndiffuse = 0.5\n[[objects]]\ntype = \"mesh\"\nname = \"spider\"\npath = {:?}\nmaterial = \"m\"\n", spider.display()),
+    );
+    let (lines, stderr) = info(&scene);
+    assert_eq!(
+        lines[1],
+        format!("object 0 'spider': mesh {}, 1312 triangles (56 degenerate dropped), material m", spider.display())
+    );
+    assert!(lines.contains(&"triangles: 1312".into()) && lines.ends_with(&["degenerate triangles dropped: 56".into()]));
+    let warning =
+        format!("object 'spider' (mesh): {}: dropped 56 degenerate (zero-area) triangles of 1368", spider.display());
+    assert!(stderr.lines().any(|l| l.starts_with("warning: ") && l.ends_with(&warning)), "{stderr}");
+}
+
+#[test]
+fn a_missing_scene_is_one_line() {
+    let dir = TempDir::new("missing");
+    let scene = dir.path("nope.toml");
+    let e = fails(&dir, &["info", scene.to_str().unwrap()]);
+    assert!(e.starts_with(&format!("error: {}: cannot read the scene: ", scene.display())), "{e}");
+}
