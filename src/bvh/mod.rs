@@ -1,0 +1,457 @@
+//! The native backend: a bounding volume hierarchy over the scene's triangles and spheres, in
+//! safe Rust, tracing the same scenes as Embree so that each checks the other.
+//!
+//! - Build ([`build`]): binned SAH over primitive boxes, subtrees in parallel with rayon;
+//!   deterministic, so the tree does not depend on the thread count.
+//! - Layout ([`node`]): the binary tree collapsed into 4-wide nodes (four child boxes in
+//!   structure-of-arrays form, 128 bytes), in one flat array; triangles copied into leaf
+//!   blocks of four ([`Triangle4`]) in tree order, so a leaf test reads one contiguous block.
+//! - Traversal: a stack of node references, nearest child first, four slab tests per node with
+//!   a precomputed inverse direction; leaves run the watertight triangle test four at a time
+//!   ([`triangle::intersect4`]) and the lecture's sphere quadratic ([`sphere::intersect`], the
+//!   function Embree's callbacks call too).
+//!
+//! Planes are unbounded and stay outside the tree: like [`crate::embree::EmbreeAccel`], every
+//! query tests them first with [`plane::closest`] and shortens the ray to the nearest one. Hits
+//! carry the same ids as Embree's ([`Scene::spheres_geom_id`] etc.), so the two compare one to
+//! one.
+
+pub mod build;
+pub mod node;
+
+use rayon::prelude::*;
+
+use crate::accel::{Accel, Hit, TraceError};
+use crate::geometry::triangle::{self, RayFrame, Triangle4};
+use crate::geometry::{Plane, Sphere, plane, sphere};
+use crate::math::{Aabb, Ray, Vec3};
+use crate::scene::Scene;
+use build::PrimRef;
+use node::{ChildRef, LeafSink, Node4, WIDTH};
+
+/// Input the native backend refuses, named as Embree's checks name it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Error {
+    #[error("{object}: {problem}")]
+    InvalidInput { object: String, problem: String },
+}
+
+/// Enough stack for any tree the build makes: its binary depth is at most
+/// `MAX_SAH_DEPTH + 32` (median splits below that depth halve the count), the 4-wide tree is
+/// no deeper, and each 4-wide level pushes at most three children.
+const STACK: usize = 3 * (build::MAX_SAH_DEPTH + 33);
+
+/// `1 + 2γ₃` (pbrt's γ_n = nε/(1 − nε), ε = 2⁻²⁴): scaling a slab test's exit distance by it
+/// makes the test conservative against the rounding of `(bound − org)·inv` (Ize, "Robust BVH
+/// Ray Traversal", JCGT 2013), so a ray through a box's face or corner is never culled.
+const EXIT_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON / 2.0) / (1.0 - 3.0 * f32::EPSILON / 2.0);
+
+/// The native BVH over a scene's meshes and spheres, plus its planes.
+pub struct Bvh {
+    nodes: Vec<Node4>,
+    root: ChildRef,
+    bounds: Aabb,
+    /// Triangles in tree order, four per block.
+    blocks: Vec<Triangle4>,
+    /// `(geom_id, prim_id)` of each block's lanes.
+    block_ids: Vec<[(u32, u32); 4]>,
+    /// Spheres in tree order, with their index in the scene.
+    spheres: Vec<Sphere>,
+    sphere_ids: Vec<u32>,
+    planes: Vec<Plane>,
+    spheres_geom_id: u32,
+    planes_geom_id: u32,
+}
+
+/// Sizes of a built [`Bvh`], for reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stats {
+    pub nodes: usize,
+    pub leaves: usize,
+    pub triangle_blocks: usize,
+    pub triangles: usize,
+    pub spheres: usize,
+    pub depth: usize,
+    pub bytes: usize,
+}
+
+/// The leaf sink of the collapse: copies each leaf's primitives into blocks or the sphere
+/// array, in tree order.
+struct Leaves<'a> {
+    refs: &'a [PrimRef],
+    scene: &'a Scene,
+    /// `(mesh, triangle)` of each global triangle index.
+    tri_ids: &'a [(u32, u32)],
+    blocks: Vec<Triangle4>,
+    block_ids: Vec<[(u32, u32); 4]>,
+    spheres: Vec<Sphere>,
+    sphere_ids: Vec<u32>,
+}
+
+impl LeafSink for Leaves<'_> {
+    fn leaf(&mut self, start: usize, count: usize) -> ChildRef {
+        let refs = &self.refs[start..start + count];
+        if refs[0].is_sphere {
+            let first = self.spheres.len();
+            for r in refs {
+                let i = r.id as usize - self.tri_ids.len();
+                self.spheres.push(self.scene.spheres[i]);
+                self.sphere_ids.push(i as u32);
+            }
+            ChildRef::leaf(first, count, true)
+        } else {
+            let first = self.blocks.len();
+            for chunk in refs.chunks(triangle::LANES) {
+                let mut block = Triangle4::EMPTY;
+                let mut ids = [(u32::MAX, u32::MAX); 4];
+                for (lane, r) in chunk.iter().enumerate() {
+                    let (mesh, tri) = self.tri_ids[r.id as usize];
+                    block.set(lane, self.scene.meshes[mesh as usize].triangle(tri as usize));
+                    ids[lane] = (mesh, tri);
+                }
+                self.blocks.push(block);
+                self.block_ids.push(ids);
+            }
+            ChildRef::leaf(first, count.div_ceil(triangle::LANES), false)
+        }
+    }
+}
+
+/// A sphere's box, padded by a few ulps (as for Embree) so that rounding in the slab test can
+/// never cull a ray the quadratic would hit.
+fn sphere_bounds(s: &Sphere) -> Aabb {
+    let pad = 4.0 * f32::EPSILON * (s.center.abs().max_element() + s.radius);
+    let b = s.bounds();
+    Aabb::new(b.min - Vec3::splat(pad), b.max + Vec3::splat(pad))
+}
+
+impl Bvh {
+    /// Builds the BVH over `scene` on the current rayon pool; every object is validated first,
+    /// as [`crate::embree::EmbreeAccel::build`] does, and errors name it.
+    pub fn build(scene: &Scene) -> Result<Bvh, Error> {
+        let invalid = |object: String, problem: String| Error::InvalidInput { object, problem };
+        if let Some((i, p)) = scene.planes.iter().enumerate().find_map(|(i, p)| p.problem().map(|e| (i, e))) {
+            return Err(invalid(format!("plane {i}"), p));
+        }
+        if let Some((i, p)) = scene.spheres.iter().enumerate().find_map(|(i, s)| s.problem().map(|e| (i, e))) {
+            return Err(invalid(format!("sphere {i} of 'spheres'"), p));
+        }
+        if let Some((m, p)) = scene.meshes.iter().find_map(|m| m.problem().map(|e| (m, e))) {
+            return Err(invalid(format!("mesh '{}'", m.name), p));
+        }
+        let n_tris = scene.triangle_count();
+        let n = n_tris + scene.spheres.len();
+        if n > u32::MAX as usize / 2 || n > node::MAX_LEAF_INDEX {
+            return Err(invalid("scene".into(), format!("{n} primitives are more than the native BVH can index")));
+        }
+        let tri_ids: Vec<(u32, u32)> = scene
+            .meshes
+            .iter()
+            .enumerate()
+            .flat_map(|(m, mesh)| (0..mesh.indices.len() as u32).map(move |t| (m as u32, t)))
+            .collect();
+        let mut refs: Vec<PrimRef> = tri_ids
+            .par_iter()
+            .enumerate()
+            .map(|(i, &(m, t))| {
+                PrimRef::new(triangle::bounds(scene.meshes[m as usize].triangle(t as usize)), i as u32, false)
+            })
+            .collect();
+        refs.extend(
+            scene.spheres.iter().enumerate().map(|(i, s)| PrimRef::new(sphere_bounds(s), (n_tris + i) as u32, true)),
+        );
+        let tree = build::build(&mut refs);
+        let mut leaves = Leaves {
+            refs: &refs,
+            scene,
+            tri_ids: &tri_ids,
+            blocks: Vec::with_capacity(n_tris / 2),
+            block_ids: Vec::with_capacity(n_tris / 2),
+            spheres: Vec::with_capacity(scene.spheres.len()),
+            sphere_ids: Vec::with_capacity(scene.spheres.len()),
+        };
+        let (nodes, root, bounds) = match &tree {
+            Some(t) => {
+                let (nodes, root) = node::collapse(t, &mut leaves);
+                (nodes, root, t.bounds())
+            }
+            None => (Vec::new(), ChildRef::EMPTY, Aabb::EMPTY),
+        };
+        if nodes.len() > node::MAX_NODE_INDEX {
+            return Err(invalid(
+                "scene".into(),
+                format!("{} nodes are more than the native BVH can index", nodes.len()),
+            ));
+        }
+        Ok(Bvh {
+            nodes,
+            root,
+            bounds,
+            blocks: leaves.blocks,
+            block_ids: leaves.block_ids,
+            spheres: leaves.spheres,
+            sphere_ids: leaves.sphere_ids,
+            planes: scene.planes.clone(),
+            spheres_geom_id: scene.spheres_geom_id(),
+            planes_geom_id: scene.planes_geom_id(),
+        })
+    }
+
+    /// The bounds of everything in the tree (planes excluded).
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Node, leaf and primitive counts, depth and memory.
+    pub fn stats(&self) -> Stats {
+        fn depth(bvh: &Bvh, r: ChildRef, leaves: &mut usize) -> usize {
+            if r.is_leaf() {
+                *leaves += 1;
+                return 0;
+            }
+            if r == ChildRef::EMPTY {
+                return 0;
+            }
+            let n = &bvh.nodes[r.index()];
+            1 + n.children.iter().map(|&c| depth(bvh, c, leaves)).max().unwrap_or(0)
+        }
+        let mut leaves = 0;
+        let d = depth(self, self.root, &mut leaves);
+        Stats {
+            nodes: self.nodes.len(),
+            leaves,
+            triangle_blocks: self.blocks.len(),
+            triangles: self.block_ids.iter().flatten().filter(|&&(m, _)| m != u32::MAX).count(),
+            spheres: self.spheres.len(),
+            depth: d,
+            bytes: self.nodes.len() * size_of::<Node4>()
+                + self.blocks.len() * (size_of::<Triangle4>() + size_of::<[(u32, u32); 4]>())
+                + self.spheres.len() * (size_of::<Sphere>() + 4),
+        }
+    }
+
+    /// The closest plane hit, as [`crate::embree::EmbreeAccel`] finds it.
+    #[inline]
+    fn plane_hit(&self, ray: &Ray) -> Option<Hit> {
+        plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).map(|(t, i)| Hit {
+            t,
+            ng: self.planes[i as usize].normal,
+            u: 0.0,
+            v: 0.0,
+            geom_id: self.planes_geom_id,
+            prim_id: i,
+        })
+    }
+
+    /// The closest hit in the tree within `(ray.tnear, ray.tfar)`.
+    fn intersect_tree(&self, ray: &Ray) -> Option<Hit> {
+        let r = TraversalRay::new(ray);
+        let mut best_t = ray.tfar;
+        let mut found = None;
+        let mut stack = [(ChildRef::EMPTY, 0.0f32); STACK];
+        let mut sp = 0;
+        let mut cur = self.root;
+        loop {
+            if cur.is_leaf() {
+                let (first, count) = cur.range();
+                if cur.is_spheres() {
+                    for i in first..first + count {
+                        let s = &self.spheres[i];
+                        if let Some(t) = sphere::intersect(ray.org, ray.dir, s.center, s.radius, ray.tnear, best_t) {
+                            best_t = t;
+                            found = Some(Found::Sphere { index: i, t });
+                        }
+                    }
+                } else {
+                    for b in first..first + count {
+                        if let Some((lane, hit)) = triangle::intersect4(&r.frame, &self.blocks[b], ray.tnear, best_t) {
+                            best_t = hit.t;
+                            found = Some(Found::Triangle { block: b, lane, hit });
+                        }
+                    }
+                }
+            } else if cur != ChildRef::EMPTY {
+                let node = &self.nodes[cur.index()];
+                let (entry, hit) = r.hit_boxes(node, best_t);
+                let mut next = [(ChildRef::EMPTY, 0.0f32); WIDTH];
+                let mut k = 0;
+                for lane in 0..WIDTH {
+                    if hit[lane] {
+                        next[k] = (node.children[lane], entry[lane]);
+                        k += 1;
+                    }
+                }
+                if k > 0 {
+                    // Nearest first: sort the (at most four) children by entry distance, push
+                    // the others farthest first, and descend into the nearest.
+                    for i in 1..k {
+                        let mut j = i;
+                        while j > 0 && next[j].1 < next[j - 1].1 {
+                            next.swap(j, j - 1);
+                            j -= 1;
+                        }
+                    }
+                    for &c in next[1..k].iter().rev() {
+                        stack[sp] = c;
+                        sp += 1;
+                    }
+                    cur = next[0].0;
+                    continue;
+                }
+            }
+            // Pop the next subtree the ray may still reach before its closest hit so far.
+            loop {
+                if sp == 0 {
+                    return found.map(|f| self.hit_of(ray, f));
+                }
+                sp -= 1;
+                let (c, entry) = stack[sp];
+                if entry <= best_t * EXIT_SCALE {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
+    fn occluded_tree(&self, ray: &Ray) -> bool {
+        let r = TraversalRay::new(ray);
+        let mut stack = [ChildRef::EMPTY; STACK];
+        let mut sp = 0;
+        let mut cur = self.root;
+        loop {
+            if cur.is_leaf() {
+                let (first, count) = cur.range();
+                if cur.is_spheres() {
+                    for s in &self.spheres[first..first + count] {
+                        if sphere::intersect(ray.org, ray.dir, s.center, s.radius, ray.tnear, ray.tfar).is_some() {
+                            return true;
+                        }
+                    }
+                } else {
+                    for block in &self.blocks[first..first + count] {
+                        if triangle::occluded4(&r.frame, block, ray.tnear, ray.tfar) {
+                            return true;
+                        }
+                    }
+                }
+            } else if cur != ChildRef::EMPTY {
+                let node = &self.nodes[cur.index()];
+                let (_, hit) = r.hit_boxes(node, ray.tfar);
+                for lane in 0..WIDTH {
+                    if hit[lane] {
+                        stack[sp] = node.children[lane];
+                        sp += 1;
+                    }
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+
+    /// The [`Hit`] of what the traversal found, with Embree's conventions.
+    fn hit_of(&self, ray: &Ray, found: Found) -> Hit {
+        match found {
+            Found::Triangle { block, lane, hit } => {
+                let [p0, p1, p2] = self.blocks[block].get(lane);
+                let (geom_id, prim_id) = self.block_ids[block][lane];
+                Hit { t: hit.t, ng: triangle::normal(p0, p1, p2), u: hit.u, v: hit.v, geom_id, prim_id }
+            }
+            Found::Sphere { index, t } => {
+                // Exactly what Embree's sphere callback reports.
+                let s = &self.spheres[index];
+                let ng = (ray.org - s.center) + t * ray.dir;
+                let (u, v) = sphere::uv(ng / s.radius);
+                Hit { t, ng, u, v, geom_id: self.spheres_geom_id, prim_id: self.sphere_ids[index] }
+            }
+        }
+    }
+}
+
+/// What the closest-hit traversal found.
+enum Found {
+    Triangle { block: usize, lane: usize, hit: triangle::TriangleHit },
+    Sphere { index: usize, t: f32 },
+}
+
+/// A ray prepared for traversal: the triangle test's frame, and for the slab test the inverse
+/// direction and which slab of each axis the ray enters first.
+struct TraversalRay {
+    frame: RayFrame,
+    org: [f32; 3],
+    inv: [f32; 3],
+    /// Per axis, the index into [`Node4::bounds`] of the near slab (`min` for a positive
+    /// direction, `max` for a negative one) and of the far slab.
+    near: [usize; 3],
+    far: [usize; 3],
+    tnear: f32,
+}
+
+impl TraversalRay {
+    #[inline]
+    fn new(ray: &Ray) -> Self {
+        // 1/±0 = ±∞: the slab of an axis the ray runs parallel to is (−∞, ∞) from inside and
+        // empty from outside; on its plane, 0·∞ = NaN, which the tests below ignore.
+        let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
+        let near = std::array::from_fn(|a| if inv[a].is_sign_negative() { a + 3 } else { a });
+        let far = std::array::from_fn(|a| if inv[a].is_sign_negative() { a } else { a + 3 });
+        TraversalRay { frame: RayFrame::new(ray.org, ray.dir), org: ray.org.into(), inv, near, far, tnear: ray.tnear }
+    }
+
+    /// Slab tests of the node's four boxes against `(tnear, tfar)`: entry distances, and which
+    /// boxes the ray enters. `if x > acc { x } else { acc }` keeps `acc` when `x` is NaN (a ray
+    /// in a slab's plane), so such a slab does not restrict the interval.
+    #[inline(always)]
+    fn hit_boxes(&self, node: &Node4, tfar: f32) -> ([f32; WIDTH], [bool; WIDTH]) {
+        let b = &node.bounds;
+        let (nx, ny, nz) = (&b[self.near[0]], &b[self.near[1]], &b[self.near[2]]);
+        let (fx, fy, fz) = (&b[self.far[0]], &b[self.far[1]], &b[self.far[2]]);
+        let [ox, oy, oz] = self.org;
+        let [ix, iy, iz] = self.inv;
+        let mut entry = [0.0; WIDTH];
+        let mut hit = [false; WIDTH];
+        for l in 0..WIDTH {
+            let max = |acc: f32, x: f32| if x > acc { x } else { acc };
+            let min = |acc: f32, x: f32| if x < acc { x } else { acc };
+            let t0 = max(max(max(self.tnear, (nx[l] - ox) * ix), (ny[l] - oy) * iy), (nz[l] - oz) * iz);
+            let t1 = min(min(min(tfar, (fx[l] - ox) * ix), (fy[l] - oy) * iy), (fz[l] - oz) * iz);
+            entry[l] = t0;
+            hit[l] = t0 <= t1 * EXIT_SCALE;
+        }
+        (entry, hit)
+    }
+}
+
+/// Rays that cannot be traced: a non-finite origin or direction (whose slab tests would be
+/// NaN throughout). Both backends report no hit for them.
+#[inline]
+fn traceable(ray: &Ray) -> bool {
+    ray.org.is_finite() && ray.dir.is_finite()
+}
+
+impl Accel for Bvh {
+    fn name(&self) -> &'static str {
+        "native"
+    }
+
+    fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError> {
+        if !traceable(ray) {
+            return Ok(None);
+        }
+        let plane_hit = self.plane_hit(ray);
+        let clipped = Ray { tfar: plane_hit.map_or(ray.tfar, |h| h.t), ..*ray };
+        Ok(self.intersect_tree(&clipped).or(plane_hit))
+    }
+
+    fn occluded(&self, ray: &Ray) -> Result<bool, TraceError> {
+        if !traceable(ray) {
+            return Ok(false);
+        }
+        Ok(plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).is_some() || self.occluded_tree(ray))
+    }
+}

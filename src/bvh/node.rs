@@ -1,0 +1,172 @@
+//! The flat 4-wide node layout the traversal reads, and the collapse of the binary build tree
+//! into it.
+//!
+//! A [`Node4`] holds the boxes of its four children in structure-of-arrays form (six arrays of
+//! four floats, 96 bytes) and their references (16 bytes): one node visit tests four boxes
+//! with the same instruction stream, and the node fills exactly two cache lines. A child
+//! reference ([`ChildRef`]) is either another node's index or a leaf: a run of
+//! [`Triangle4`](crate::geometry::triangle::Triangle4) blocks or of spheres.
+
+use super::build::{MAX_LEAF, Node2};
+use crate::math::Aabb;
+
+/// Children per node.
+pub const WIDTH: usize = 4;
+
+/// A node's reference to a child, packed into 32 bits:
+/// - bit 31 clear: an inner node, the rest is its index in the node array;
+/// - bit 31 set: a leaf; bit 30 says spheres (else triangle blocks), bits 27–29 hold the
+///   number of blocks or spheres minus one, bits 0–26 the index of the first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChildRef(pub u32);
+
+const LEAF: u32 = 1 << 31;
+const SPHERES: u32 = 1 << 30;
+const COUNT_SHIFT: u32 = 27;
+/// Largest first-block or first-sphere index a leaf can encode.
+pub const MAX_LEAF_INDEX: usize = (1 << COUNT_SHIFT) - 1;
+/// Largest inner-node index.
+pub const MAX_NODE_INDEX: usize = (LEAF - 2) as usize;
+
+impl ChildRef {
+    /// The empty slot of a node with fewer than four children (its box is empty too).
+    pub const EMPTY: ChildRef = ChildRef(LEAF - 1);
+
+    #[inline]
+    pub fn node(index: usize) -> Self {
+        debug_assert!(index <= MAX_NODE_INDEX);
+        ChildRef(index as u32)
+    }
+
+    #[inline]
+    pub fn leaf(first: usize, count: usize, spheres: bool) -> Self {
+        debug_assert!(first <= MAX_LEAF_INDEX && (1..=8).contains(&count));
+        ChildRef(LEAF | if spheres { SPHERES } else { 0 } | ((count as u32 - 1) << COUNT_SHIFT) | first as u32)
+    }
+
+    #[inline]
+    pub fn is_leaf(self) -> bool {
+        self.0 & LEAF != 0
+    }
+
+    #[inline]
+    pub fn is_spheres(self) -> bool {
+        self.0 & SPHERES != 0
+    }
+
+    /// The index of the inner node.
+    #[inline]
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+
+    /// A leaf's first block or sphere, and how many.
+    #[inline]
+    pub fn range(self) -> (usize, usize) {
+        ((self.0 & ((1 << COUNT_SHIFT) - 1)) as usize, ((self.0 >> COUNT_SHIFT) & 7) as usize + 1)
+    }
+}
+
+/// Four children: their boxes as `bounds[slab][lane]` with slabs `min x, min y, min z,
+/// max x, max y, max z`, and their references. Empty lanes have empty boxes (`min = +∞`,
+/// `max = −∞`), which no ray enters.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    pub bounds: [[f32; WIDTH]; 6],
+    pub children: [ChildRef; WIDTH],
+}
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 {
+        bounds: [
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        children: [ChildRef::EMPTY; WIDTH],
+    };
+
+    fn set(&mut self, lane: usize, b: Aabb, child: ChildRef) {
+        for axis in 0..3 {
+            self.bounds[axis][lane] = b.min[axis];
+            self.bounds[axis + 3][lane] = b.max[axis];
+        }
+        self.children[lane] = child;
+    }
+
+    /// The box of child `lane`.
+    pub fn child_bounds(&self, lane: usize) -> Aabb {
+        let b = &self.bounds;
+        Aabb::new([b[0][lane], b[1][lane], b[2][lane]].into(), [b[3][lane], b[4][lane], b[5][lane]].into())
+    }
+}
+
+/// What a leaf needs from the caller: the leaf's range of (reordered) primitives, all of one
+/// kind, turned into blocks or spheres; returns the leaf reference.
+pub trait LeafSink {
+    fn leaf(&mut self, start: usize, count: usize) -> ChildRef;
+}
+
+/// Collapses the binary tree into 4-wide nodes, depth first (a node's subtree follows it in
+/// the array). Each node takes its two children and keeps opening the inner child with the
+/// largest surface area until it has four (fewer only where the children are leaves).
+/// Returns the nodes and the root reference.
+pub fn collapse(root: &Node2, sink: &mut impl LeafSink) -> (Vec<Node4>, ChildRef) {
+    let mut nodes = Vec::new();
+    let root_ref = emit(root, sink, &mut nodes);
+    (nodes, root_ref)
+}
+
+fn emit(node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node4>) -> ChildRef {
+    let children = match node {
+        Node2::Leaf { start, count, .. } => {
+            debug_assert!(*count as usize <= MAX_LEAF);
+            return sink.leaf(*start as usize, *count as usize);
+        }
+        Node2::Inner { children, .. } => children,
+    };
+    let mut open: Vec<&Node2> = children.iter().collect();
+    while open.len() < WIDTH {
+        let widest = open
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| matches!(n, Node2::Inner { .. }))
+            .max_by(|(_, a), (_, b)| a.bounds().area().total_cmp(&b.bounds().area()))
+            .map(|(i, _)| i);
+        let Some(i) = widest else { break };
+        let Node2::Inner { children, .. } = open.remove(i) else { unreachable!() };
+        open.insert(i, &children[1]);
+        open.insert(i, &children[0]);
+    }
+    let index = nodes.len();
+    nodes.push(Node4::EMPTY);
+    for (lane, child) in open.into_iter().enumerate() {
+        let r = emit(child, sink, nodes);
+        nodes[index].set(lane, child.bounds(), r);
+    }
+    ChildRef::node(index)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn child_refs_round_trip() {
+        let r = ChildRef::leaf(12345, 8, true);
+        assert!(r.is_leaf() && r.is_spheres());
+        assert_eq!(r.range(), (12345, 8));
+        let r = ChildRef::leaf(MAX_LEAF_INDEX, 1, false);
+        assert!(r.is_leaf() && !r.is_spheres());
+        assert_eq!(r.range(), (MAX_LEAF_INDEX, 1));
+        let r = ChildRef::node(77);
+        assert!(!r.is_leaf());
+        assert_eq!(r.index(), 77);
+        assert!(!ChildRef::EMPTY.is_leaf());
+        assert_eq!(std::mem::size_of::<Node4>(), 128);
+    }
+}
