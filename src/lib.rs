@@ -3,6 +3,7 @@
 
 pub mod accel;
 pub mod bvh;
+pub mod crosscheck;
 pub mod embree;
 pub mod film;
 pub mod geometry;
@@ -11,6 +12,7 @@ pub mod light;
 pub mod material;
 pub mod math;
 pub mod scene;
+pub mod workload;
 
 pub use accel::{Accel, Hit, TraceError};
 pub use math::{Aabb, Ray, Vec2, Vec3};
