@@ -2,6 +2,7 @@
 //! pure-Rust BVH that renders the same scenes and cross-checks Embree's hits.
 
 pub mod accel;
+pub mod bench;
 pub mod bvh;
 pub mod crosscheck;
 pub mod embree;
