@@ -1,5 +1,6 @@
 //! The project's throughput table: `cargo bench --bench table -- [SCENE ...] [--rays N]
-//! [--runs K] [--threads 1,2] [--kinds primary,random,secondary]`. Prints, per scene, build
+//! [--runs K] [--threads 1,2] [--kinds primary,random,secondary]
+//! [--engines embree1,embree8,native]`. Prints, per scene, build
 //! times and Mrays/s of Embree single rays, Embree packets and the native BVH on the same rays
 //! (`strahl::bench`). Scenes: see `benches/scenes.rs` (default: bunny and dragon).
 
@@ -18,6 +19,7 @@ fn main() {
             "--rays" => config.rays = value().parse().expect("--rays N"),
             "--runs" => config.runs = value().parse().expect("--runs K"),
             "--threads" => config.threads = value().split(',').map(|t| t.parse().expect("--threads 1,2")).collect(),
+            "--engines" => config.engines = value().split(',').map(|e| e.parse().unwrap()).collect(),
             "--kinds" => config.kinds = value().split(',').map(|k| k.parse().unwrap()).collect(),
             name => names.push(name.to_string()),
         }

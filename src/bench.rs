@@ -5,6 +5,9 @@
 //!
 //! Each figure is the median of a few runs; a run traces every ray once, in chunks spread over
 //! a rayon pool of the given size whose workers flush denormals to zero (as Embree asks).
+//! Besides wall-clock Mrays/s, where Linux tells (`/proc/self/task/*/schedstat`), each run
+//! also records Mrays per CPU-second of the whole process: on a machine shared with other
+//! work, time spent waiting for a core inflates the wall clock but not that figure.
 
 use std::fmt;
 use std::time::Instant;
@@ -28,6 +31,8 @@ pub struct Config {
     pub rays: usize,
     pub kinds: Vec<RayKind>,
     pub threads: Vec<usize>,
+    /// The tracers to measure.
+    pub engines: Vec<Engine>,
     /// Runs per figure; the median is reported.
     pub runs: usize,
     /// Seed of the random rays.
@@ -36,7 +41,14 @@ pub struct Config {
 
 impl Default for Config {
     fn default() -> Self {
-        Config { rays: 1 << 20, kinds: RayKind::ALL.to_vec(), threads: vec![1, 2], runs: 3, seed: 1 }
+        Config {
+            rays: 1 << 20,
+            kinds: RayKind::ALL.to_vec(),
+            threads: vec![1, 2],
+            engines: Engine::ALL.to_vec(),
+            runs: 3,
+            seed: 1,
+        }
     }
 }
 
@@ -63,6 +75,20 @@ impl Engine {
     }
 }
 
+impl std::str::FromStr for Engine {
+    type Err = String;
+
+    /// `embree1`, `embree8` or `native`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "embree1" => Ok(Engine::EmbreeSingle),
+            "embree8" => Ok(Engine::EmbreePacket),
+            "native" => Ok(Engine::Native),
+            _ => Err(format!("unknown engine '{s}' (expected embree1, embree8 or native)")),
+        }
+    }
+}
+
 /// One throughput figure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Throughput {
@@ -75,6 +101,8 @@ pub struct Throughput {
     /// Median over the runs, and every run.
     pub mrays_per_s: f64,
     pub runs: Vec<f64>,
+    /// Median Mrays per CPU-second of the process, where the OS reports CPU time.
+    pub mrays_per_cpu_s: Option<f64>,
 }
 
 /// Build times in milliseconds (median over the runs).
@@ -92,6 +120,8 @@ pub struct Report {
     pub spheres: usize,
     pub planes: usize,
     pub builds: Vec<BuildTime>,
+    /// The shape of the native BVH.
+    pub native: Option<bvh::Stats>,
     pub throughput: Vec<Throughput>,
 }
 
@@ -127,6 +157,16 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     let start = Instant::now();
     let out = f();
     (out, start.elapsed().as_secs_f64())
+}
+
+/// CPU seconds all threads of this process have run so far (Linux; `None` elsewhere).
+pub fn process_cpu_seconds() -> Option<f64> {
+    let mut ns = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(ns as f64 * 1e-9)
 }
 
 /// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
@@ -167,6 +207,7 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
         }
         report.builds.push(BuildTime { threads, embree_ms: median(embree_ms), native_ms: median(native_ms) });
         let (embree, native) = built.expect("at least one run");
+        report.native = Some(native.stats());
         if ray_sets.is_empty() {
             for &kind in &config.kinds {
                 let rays = pool.install(|| workload::rays(scene, kind, config.rays, config.seed, &embree))?;
@@ -174,28 +215,39 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
             }
         }
         for (kind, rays) in &ray_sets {
-            let mut hits = vec![None; rays.len()];
-            for engine in Engine::ALL {
-                let mut runs = Vec::new();
-                for _ in 0..config.runs.max(1) {
+            // Runs interleave the engines (A B C A B C ...), so that a change in the machine's
+            // load hits all of them alike.
+            let mut hits = vec![vec![None; rays.len()]; Engine::ALL.len()];
+            let mut runs = vec![Vec::new(); Engine::ALL.len()];
+            let mut cpu_runs = vec![Vec::new(); Engine::ALL.len()];
+            for _ in 0..config.runs.max(1) {
+                for (e, engine) in config.engines.iter().enumerate() {
+                    let hits = &mut hits[e];
+                    let cpu_before = process_cpu_seconds();
                     let (result, s) = pool.install(|| {
                         timed(|| match engine {
-                            Engine::EmbreeSingle => trace(&embree, rays, &mut hits, false),
-                            Engine::EmbreePacket => trace(&embree, rays, &mut hits, true),
-                            Engine::Native => trace(&native, rays, &mut hits, false),
+                            Engine::EmbreeSingle => trace(&embree, rays, hits, false),
+                            Engine::EmbreePacket => trace(&embree, rays, hits, true),
+                            Engine::Native => trace(&native, rays, hits, false),
                         })
                     });
                     result?;
-                    runs.push(rays.len() as f64 / s / 1e6);
+                    runs[e].push(rays.len() as f64 / s / 1e6);
+                    if let (Some(before), Some(after)) = (cpu_before, process_cpu_seconds()) {
+                        cpu_runs[e].push(rays.len() as f64 / (after - before) / 1e6);
+                    }
                 }
+            }
+            for (e, &engine) in config.engines.iter().enumerate() {
                 report.throughput.push(Throughput {
                     kind: *kind,
                     threads,
                     engine,
                     rays: rays.len(),
-                    hits: hits.iter().filter(|h| h.is_some()).count(),
-                    mrays_per_s: median(runs.clone()),
-                    runs,
+                    hits: hits[e].iter().filter(|h| h.is_some()).count(),
+                    mrays_per_s: median(runs[e].clone()),
+                    runs: std::mem::take(&mut runs[e]),
+                    mrays_per_cpu_s: (!cpu_runs[e].is_empty()).then(|| median(std::mem::take(&mut cpu_runs[e]))),
                 });
             }
         }
@@ -215,6 +267,18 @@ impl fmt::Display for Report {
     /// count, then native's time relative to Embree's single rays (1.00 = as fast).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "{} triangles, {} spheres, {} planes", self.triangles, self.spheres, self.planes)?;
+        if let Some(s) = &self.native {
+            writeln!(
+                f,
+                "native BVH: {} nodes, {} leaves, {} triangle blocks ({:.2} triangles each), depth {}, {:.1} MB",
+                s.nodes,
+                s.leaves,
+                s.triangle_blocks,
+                s.triangles as f64 / s.triangle_blocks.max(1) as f64,
+                s.depth,
+                s.bytes as f64 / 1e6
+            )?;
+        }
         write!(f, "{:<24}", "build ms")?;
         for b in &self.builds {
             write!(f, "{:>12}", format!("{} thr", b.threads))?;
@@ -239,7 +303,9 @@ impl fmt::Display for Report {
             write!(f, "{:>12}", format!("{kind} {threads}t"))?;
         }
         writeln!(f)?;
-        for engine in Engine::ALL {
+        let engines: Vec<Engine> =
+            Engine::ALL.into_iter().filter(|&e| self.throughput.iter().any(|t| t.engine == e)).collect();
+        for &engine in &engines {
             write!(f, "{:<24}", engine.name())?;
             for &(kind, threads) in &columns {
                 match self.get(kind, threads, engine) {
@@ -249,14 +315,34 @@ impl fmt::Display for Report {
             }
             writeln!(f)?;
         }
-        write!(f, "{:<24}", "native time / embree1")?;
-        for &(kind, threads) in &columns {
-            match (self.get(kind, threads, Engine::Native), self.get(kind, threads, Engine::EmbreeSingle)) {
-                (Some(n), Some(e)) => write!(f, "{:>12.2}", e.mrays_per_s / n.mrays_per_s)?,
-                _ => write!(f, "{:>12}", "-")?,
+        let ratio = |f: &mut fmt::Formatter<'_>, get: fn(&Throughput) -> Option<f64>| -> fmt::Result {
+            for &(kind, threads) in &columns {
+                let n = self.get(kind, threads, Engine::Native).and_then(get);
+                let e = self.get(kind, threads, Engine::EmbreeSingle).and_then(get);
+                match (n, e) {
+                    (Some(n), Some(e)) => write!(f, "{:>12.2}", e / n)?,
+                    _ => write!(f, "{:>12}", "-")?,
+                }
             }
+            writeln!(f)
+        };
+        write!(f, "{:<24}", "native time / embree1")?;
+        ratio(f, |t| Some(t.mrays_per_s))?;
+        if self.throughput.iter().any(|t| t.mrays_per_cpu_s.is_some()) {
+            writeln!(f, "Mrays per CPU-second (insensitive to waiting for a core)")?;
+            for &engine in &engines {
+                write!(f, "{:<24}", engine.name())?;
+                for &(kind, threads) in &columns {
+                    match self.get(kind, threads, engine).and_then(|t| t.mrays_per_cpu_s) {
+                        Some(m) => write!(f, "{m:>12.2}")?,
+                        None => write!(f, "{:>12}", "-")?,
+                    }
+                }
+                writeln!(f)?;
+            }
+            write!(f, "{:<24}", "native CPU / embree1")?;
+            ratio(f, |t| t.mrays_per_cpu_s)?;
         }
-        writeln!(f)?;
         write!(f, "{:<24}", "hit %")?;
         for &(kind, threads) in &columns {
             match self.get(kind, threads, Engine::Native) {
@@ -283,7 +369,7 @@ mod tests {
             kinds: vec![RayKind::Primary, RayKind::Random],
             threads: vec![1, 2],
             runs: 1,
-            seed: 1,
+            ..Config::default()
         };
         let report = run(&scene, &config).unwrap();
         assert_eq!(report.builds.len(), 2);

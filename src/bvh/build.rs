@@ -14,14 +14,28 @@ use crate::math::{Aabb, Vec3};
 
 /// Centroid bins per axis.
 pub const BINS: usize = 32;
-/// The most primitives a leaf may hold (two blocks of four triangles).
+/// The most primitives a leaf may ever hold (the leaf encoding's limit: eight spheres, or
+/// eight blocks of four triangles).
 pub const MAX_LEAF: usize = 8;
 /// Below this depth the SAH decides; deeper nodes split at the median, which bounds the
 /// depth by `MAX_SAH_DEPTH + log2(n)` even for pathological input (and so the traversal
 /// stack).
 pub const MAX_SAH_DEPTH: usize = 40;
-/// SAH cost of visiting a node, relative to one 4-wide primitive test.
-const TRAVERSAL_COST: f32 = 1.0;
+
+/// Tuning of the build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Options {
+    /// The most primitives a leaf holds (1 to [`MAX_LEAF`]).
+    pub max_leaf: usize,
+    /// SAH cost of visiting a node, relative to one 4-wide primitive test.
+    pub traversal_cost: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { max_leaf: 4, traversal_cost: 1.0 }
+    }
+}
 /// Nodes with more primitives than this bin and build their children in parallel.
 const PARALLEL: usize = 4096;
 /// Chunk of primitives per rayon task when binning.
@@ -61,11 +75,12 @@ impl Node2 {
 
 /// Builds the binary tree over `refs`, reordering them so that every leaf is a contiguous
 /// range. Runs on the current rayon pool. `None` for no primitives.
-pub fn build(refs: &mut [PrimRef]) -> Option<Node2> {
+pub fn build(refs: &mut [PrimRef], options: &Options) -> Option<Node2> {
     if refs.is_empty() {
         return None;
     }
-    Some(build_node(refs, 0, 0))
+    let options = Options { max_leaf: options.max_leaf.clamp(1, MAX_LEAF), ..*options };
+    Some(build_node(refs, 0, 0, &options))
 }
 
 /// Rounds a primitive count up to whole 4-wide blocks.
@@ -201,7 +216,7 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {
     i
 }
 
-fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize) -> Node2 {
+fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Options) -> Node2 {
     let n = refs.len();
     let summary = if n > PARALLEL {
         refs.par_chunks(CHUNK).map(Summary::of).reduce(|| Summary::EMPTY, Summary::merge)
@@ -221,17 +236,18 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize) -> Node2 {
         } else {
             bin_refs(refs, &binning)
         };
-        best_split(&bins).map(|(cost, axis, plane)| (TRAVERSAL_COST * bounds.area() + cost, axis, plane, binning))
+        best_split(&bins)
+            .map(|(cost, axis, plane)| (options.traversal_cost * bounds.area() + cost, axis, plane, binning))
     } else {
         None
     };
     let leaf_cost = bounds.area() * blocks(n);
-    if !mixed && n <= MAX_LEAF && split.as_ref().is_none_or(|s| leaf_cost <= s.0) {
+    if !mixed && n <= options.max_leaf && split.as_ref().is_none_or(|s| leaf_cost <= s.0) {
         return leaf();
     }
     let mid = match split {
         // A leaf of mixed kinds must be split by kind first.
-        _ if mixed && n <= MAX_LEAF => partition(refs, |r| !r.is_sphere),
+        _ if mixed && n <= options.max_leaf => partition(refs, |r| !r.is_sphere),
         Some((_, axis, plane, binning)) => partition(refs, |r| binning.bin(r.centroid, axis) < plane),
         // All centroids coincide, or the tree is deep: split by kind, else in the middle.
         None if mixed => partition(refs, |r| !r.is_sphere),
@@ -239,9 +255,12 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize) -> Node2 {
     };
     let (left, right) = refs.split_at_mut(mid);
     let (l, r) = if n > PARALLEL {
-        rayon::join(|| build_node(left, offset, depth + 1), || build_node(right, offset + mid, depth + 1))
+        rayon::join(
+            || build_node(left, offset, depth + 1, options),
+            || build_node(right, offset + mid, depth + 1, options),
+        )
     } else {
-        (build_node(left, offset, depth + 1), build_node(right, offset + mid, depth + 1))
+        (build_node(left, offset, depth + 1, options), build_node(right, offset + mid, depth + 1, options))
     };
     Node2::Inner { bounds, children: Box::new([l, r]) }
 }
@@ -275,7 +294,9 @@ mod tests {
         let mut pts: Vec<Vec3> = (0..4).map(|i| Vec3::new(i as f32 * 0.01, 0.0, 0.0)).collect();
         pts.extend((0..4).map(|i| Vec3::new(10.0 + i as f32 * 0.01, 0.0, 0.0)));
         let mut refs = point_refs(&pts);
-        let Node2::Inner { children, .. } = build(&mut refs).unwrap() else { panic!("one leaf for two clusters") };
+        let Node2::Inner { children, .. } = build(&mut refs, &Options::default()).unwrap() else {
+            panic!("one leaf for two clusters")
+        };
         for (child, range) in children.iter().zip([0..4u32, 4..8]) {
             let Node2::Leaf { start, count, .. } = child else { panic!("cluster not a leaf") };
             assert_eq!((*start, *count), (range.start, 4));
@@ -289,10 +310,10 @@ mod tests {
     fn coincident_primitives_still_make_small_leaves() {
         // 1000 identical boxes: no plane separates them; median splits keep leaves ≤ MAX_LEAF.
         let mut refs = point_refs(&vec![Vec3::ONE; 1000]);
-        let root = build(&mut refs).unwrap();
+        let root = build(&mut refs, &Options::default()).unwrap();
         let (mut out, mut depth) = (Vec::new(), 0);
         leaves(&root, &mut out, 0, &mut depth);
-        assert!(out.iter().all(|&(_, c)| c as usize <= MAX_LEAF));
+        assert!(out.iter().all(|&(_, c)| c as usize <= Options::default().max_leaf));
         assert_eq!(out.iter().map(|&(_, c)| c).sum::<u32>(), 1000);
         assert!(depth <= MAX_SAH_DEPTH + 12, "depth {depth}");
     }
@@ -301,7 +322,7 @@ mod tests {
     fn leaves_hold_one_kind() {
         let mut refs: Vec<PrimRef> =
             (0..6).map(|i| PrimRef::new(Aabb::new(Vec3::ZERO, Vec3::ONE), i, i % 2 == 0)).collect();
-        let root = build(&mut refs).unwrap();
+        let root = build(&mut refs, &Options::default()).unwrap();
         let (mut out, mut depth) = (Vec::new(), 0);
         leaves(&root, &mut out, 0, &mut depth);
         for (start, count) in out {

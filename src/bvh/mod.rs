@@ -19,13 +19,15 @@
 pub mod build;
 pub mod node;
 
+use glam::Vec4;
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Hit, TraceError};
-use crate::geometry::triangle::{self, RayFrame, Triangle4};
+use crate::geometry::triangle::{self, RayFrame, RayFrame4, Triangle4};
 use crate::geometry::{Plane, Sphere, plane, sphere};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Scene;
+pub use build::Options as BuildOptions;
 use build::PrimRef;
 use node::{ChildRef, LeafSink, Node4, WIDTH};
 
@@ -52,15 +54,27 @@ pub struct Bvh {
     root: ChildRef,
     bounds: Aabb,
     /// Triangles in tree order, four per block.
-    blocks: Vec<Triangle4>,
-    /// `(geom_id, prim_id)` of each block's lanes.
-    block_ids: Vec<[(u32, u32); 4]>,
+    blocks: Vec<Block>,
     /// Spheres in tree order, with their index in the scene.
     spheres: Vec<Sphere>,
     sphere_ids: Vec<u32>,
     planes: Vec<Plane>,
     spheres_geom_id: u32,
     planes_geom_id: u32,
+}
+
+/// Four triangles of a leaf and their ids, in three cache lines: the ids share the last line
+/// with the corners' tail, so reporting a hit costs no further memory access.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Block {
+    triangles: Triangle4,
+    geom_ids: [u32; 4],
+    prim_ids: [u32; 4],
+}
+
+impl Block {
+    const EMPTY: Block = Block { triangles: Triangle4::EMPTY, geom_ids: [u32::MAX; 4], prim_ids: [u32::MAX; 4] };
 }
 
 /// Sizes of a built [`Bvh`], for reports.
@@ -82,8 +96,7 @@ struct Leaves<'a> {
     scene: &'a Scene,
     /// `(mesh, triangle)` of each global triangle index.
     tri_ids: &'a [(u32, u32)],
-    blocks: Vec<Triangle4>,
-    block_ids: Vec<[(u32, u32); 4]>,
+    blocks: Vec<Block>,
     spheres: Vec<Sphere>,
     sphere_ids: Vec<u32>,
 }
@@ -102,15 +115,13 @@ impl LeafSink for Leaves<'_> {
         } else {
             let first = self.blocks.len();
             for chunk in refs.chunks(triangle::LANES) {
-                let mut block = Triangle4::EMPTY;
-                let mut ids = [(u32::MAX, u32::MAX); 4];
+                let mut block = Block::EMPTY;
                 for (lane, r) in chunk.iter().enumerate() {
                     let (mesh, tri) = self.tri_ids[r.id as usize];
-                    block.set(lane, self.scene.meshes[mesh as usize].triangle(tri as usize));
-                    ids[lane] = (mesh, tri);
+                    block.triangles.set(lane, self.scene.meshes[mesh as usize].triangle(tri as usize));
+                    (block.geom_ids[lane], block.prim_ids[lane]) = (mesh, tri);
                 }
                 self.blocks.push(block);
-                self.block_ids.push(ids);
             }
             ChildRef::leaf(first, count.div_ceil(triangle::LANES), false)
         }
@@ -129,6 +140,12 @@ impl Bvh {
     /// Builds the BVH over `scene` on the current rayon pool; every object is validated first,
     /// as [`crate::embree::EmbreeAccel::build`] does, and errors name it.
     pub fn build(scene: &Scene) -> Result<Bvh, Error> {
+        Bvh::build_with(scene, &BuildOptions::default())
+    }
+
+    /// [`Bvh::build`] with tuned build options (for experiments; the default is what strahl
+    /// uses).
+    pub fn build_with(scene: &Scene, options: &BuildOptions) -> Result<Bvh, Error> {
         let invalid = |object: String, problem: String| Error::InvalidInput { object, problem };
         if let Some((i, p)) = scene.planes.iter().enumerate().find_map(|(i, p)| p.problem().map(|e| (i, e))) {
             return Err(invalid(format!("plane {i}"), p));
@@ -160,13 +177,12 @@ impl Bvh {
         refs.extend(
             scene.spheres.iter().enumerate().map(|(i, s)| PrimRef::new(sphere_bounds(s), (n_tris + i) as u32, true)),
         );
-        let tree = build::build(&mut refs);
+        let tree = build::build(&mut refs, options);
         let mut leaves = Leaves {
             refs: &refs,
             scene,
             tri_ids: &tri_ids,
             blocks: Vec::with_capacity(n_tris / 2),
-            block_ids: Vec::with_capacity(n_tris / 2),
             spheres: Vec::with_capacity(scene.spheres.len()),
             sphere_ids: Vec::with_capacity(scene.spheres.len()),
         };
@@ -188,7 +204,6 @@ impl Bvh {
             root,
             bounds,
             blocks: leaves.blocks,
-            block_ids: leaves.block_ids,
             spheres: leaves.spheres,
             sphere_ids: leaves.sphere_ids,
             planes: scene.planes.clone(),
@@ -221,11 +236,11 @@ impl Bvh {
             nodes: self.nodes.len(),
             leaves,
             triangle_blocks: self.blocks.len(),
-            triangles: self.block_ids.iter().flatten().filter(|&&(m, _)| m != u32::MAX).count(),
+            triangles: self.blocks.iter().flat_map(|b| b.geom_ids).filter(|&m| m != u32::MAX).count(),
             spheres: self.spheres.len(),
             depth: d,
             bytes: self.nodes.len() * size_of::<Node4>()
-                + self.blocks.len() * (size_of::<Triangle4>() + size_of::<[(u32, u32); 4]>())
+                + self.blocks.len() * size_of::<Block>()
                 + self.spheres.len() * (size_of::<Sphere>() + 4),
         }
     }
@@ -264,7 +279,9 @@ impl Bvh {
                     }
                 } else {
                     for b in first..first + count {
-                        if let Some((lane, hit)) = triangle::intersect4(&r.frame, &self.blocks[b], ray.tnear, best_t) {
+                        if let Some((lane, hit)) =
+                            triangle::intersect4(&r.frame, &self.blocks[b].triangles, ray.tnear, best_t)
+                        {
                             best_t = hit.t;
                             found = Some(Found::Triangle { block: b, lane, hit });
                         }
@@ -272,14 +289,15 @@ impl Bvh {
                 }
             } else if cur != ChildRef::EMPTY {
                 let node = &self.nodes[cur.index()];
-                let (entry, hit) = r.hit_boxes(node, best_t);
+                let (entry, mut mask) = r.hit_boxes(node, best_t);
+                let entry: [f32; WIDTH] = entry.into();
                 let mut next = [(ChildRef::EMPTY, 0.0f32); WIDTH];
                 let mut k = 0;
-                for lane in 0..WIDTH {
-                    if hit[lane] {
-                        next[k] = (node.children[lane], entry[lane]);
-                        k += 1;
-                    }
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    next[k] = (node.children[lane], entry[lane]);
+                    k += 1;
                 }
                 if k > 0 {
                     // Nearest first: sort the (at most four) children by entry distance, push
@@ -331,19 +349,18 @@ impl Bvh {
                     }
                 } else {
                     for block in &self.blocks[first..first + count] {
-                        if triangle::occluded4(&r.frame, block, ray.tnear, ray.tfar) {
+                        if triangle::occluded4(&r.frame, &block.triangles, ray.tnear, ray.tfar) {
                             return true;
                         }
                     }
                 }
             } else if cur != ChildRef::EMPTY {
                 let node = &self.nodes[cur.index()];
-                let (_, hit) = r.hit_boxes(node, ray.tfar);
-                for lane in 0..WIDTH {
-                    if hit[lane] {
-                        stack[sp] = node.children[lane];
-                        sp += 1;
-                    }
+                let (_, mut mask) = r.hit_boxes(node, ray.tfar);
+                while mask != 0 {
+                    stack[sp] = node.children[mask.trailing_zeros() as usize];
+                    sp += 1;
+                    mask &= mask - 1;
                 }
             }
             if sp == 0 {
@@ -358,8 +375,9 @@ impl Bvh {
     fn hit_of(&self, ray: &Ray, found: Found) -> Hit {
         match found {
             Found::Triangle { block, lane, hit } => {
-                let [p0, p1, p2] = self.blocks[block].get(lane);
-                let (geom_id, prim_id) = self.block_ids[block][lane];
+                let block = &self.blocks[block];
+                let [p0, p1, p2] = block.triangles.get(lane);
+                let (geom_id, prim_id) = (block.geom_ids[lane], block.prim_ids[lane]);
                 Hit { t: hit.t, ng: triangle::normal(p0, p1, p2), u: hit.u, v: hit.v, geom_id, prim_id }
             }
             Found::Sphere { index, t } => {
@@ -379,17 +397,18 @@ enum Found {
     Sphere { index: usize, t: f32 },
 }
 
-/// A ray prepared for traversal: the triangle test's frame, and for the slab test the inverse
-/// direction and which slab of each axis the ray enters first.
+/// A ray prepared for traversal: the triangle test's frame, and for the slab test the origin
+/// and inverse direction broadcast to four lanes and which slab of each axis the ray enters
+/// first.
 struct TraversalRay {
-    frame: RayFrame,
-    org: [f32; 3],
-    inv: [f32; 3],
+    frame: RayFrame4,
+    org: [Vec4; 3],
+    inv: [Vec4; 3],
     /// Per axis, the index into [`Node4::bounds`] of the near slab (`min` for a positive
     /// direction, `max` for a negative one) and of the far slab.
     near: [usize; 3],
     far: [usize; 3],
-    tnear: f32,
+    tnear: Vec4,
 }
 
 impl TraversalRay {
@@ -400,31 +419,46 @@ impl TraversalRay {
         let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
         let near = std::array::from_fn(|a| if inv[a].is_sign_negative() { a + 3 } else { a });
         let far = std::array::from_fn(|a| if inv[a].is_sign_negative() { a } else { a + 3 });
-        TraversalRay { frame: RayFrame::new(ray.org, ray.dir), org: ray.org.into(), inv, near, far, tnear: ray.tnear }
+        TraversalRay {
+            frame: RayFrame4::new(&RayFrame::new(ray.org, ray.dir)),
+            org: [Vec4::splat(ray.org.x), Vec4::splat(ray.org.y), Vec4::splat(ray.org.z)],
+            inv: inv.map(Vec4::splat),
+            near,
+            far,
+            tnear: Vec4::splat(ray.tnear),
+        }
     }
 
-    /// Slab tests of the node's four boxes against `(tnear, tfar)`: entry distances, and which
-    /// boxes the ray enters. `if x > acc { x } else { acc }` keeps `acc` when `x` is NaN (a ray
-    /// in a slab's plane), so such a slab does not restrict the interval.
+    /// Slab tests of the node's four boxes against `(tnear, tfar)`: entry distances, and a
+    /// bit mask of the boxes the ray enters.
     #[inline(always)]
-    fn hit_boxes(&self, node: &Node4, tfar: f32) -> ([f32; WIDTH], [bool; WIDTH]) {
+    fn hit_boxes(&self, node: &Node4, tfar: f32) -> (Vec4, u32) {
         let b = &node.bounds;
-        let (nx, ny, nz) = (&b[self.near[0]], &b[self.near[1]], &b[self.near[2]]);
-        let (fx, fy, fz) = (&b[self.far[0]], &b[self.far[1]], &b[self.far[2]]);
         let [ox, oy, oz] = self.org;
         let [ix, iy, iz] = self.inv;
-        let mut entry = [0.0; WIDTH];
-        let mut hit = [false; WIDTH];
-        for l in 0..WIDTH {
-            let max = |acc: f32, x: f32| if x > acc { x } else { acc };
-            let min = |acc: f32, x: f32| if x < acc { x } else { acc };
-            let t0 = max(max(max(self.tnear, (nx[l] - ox) * ix), (ny[l] - oy) * iy), (nz[l] - oz) * iz);
-            let t1 = min(min(min(tfar, (fx[l] - ox) * ix), (fy[l] - oy) * iy), (fz[l] - oz) * iz);
-            entry[l] = t0;
-            hit[l] = t0 <= t1 * EXIT_SCALE;
-        }
-        (entry, hit)
+        let t0 = keep_max(
+            keep_max(keep_max(self.tnear, (b[self.near[0]] - ox) * ix), (b[self.near[1]] - oy) * iy),
+            (b[self.near[2]] - oz) * iz,
+        );
+        let t1 = keep_min(
+            keep_min(keep_min(Vec4::splat(tfar), (b[self.far[0]] - ox) * ix), (b[self.far[1]] - oy) * iy),
+            (b[self.far[2]] - oz) * iz,
+        );
+        (t0, t0.cmple(t1 * EXIT_SCALE).bitmask())
     }
+}
+
+/// `max(acc, x)` per lane, keeping `acc` where `x` is NaN (a ray in a slab's plane, where
+/// `(bound − org)·inv` is `0·∞`): such a slab does not restrict the interval.
+#[inline(always)]
+fn keep_max(acc: Vec4, x: Vec4) -> Vec4 {
+    Vec4::select(x.cmpgt(acc), x, acc)
+}
+
+/// `min(acc, x)` per lane, keeping `acc` where `x` is NaN.
+#[inline(always)]
+fn keep_min(acc: Vec4, x: Vec4) -> Vec4 {
+    Vec4::select(x.cmplt(acc), x, acc)
 }
 
 /// Rays that cannot be traced: a non-finite origin or direction (whose slab tests would be

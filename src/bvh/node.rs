@@ -7,6 +7,8 @@
 //! reference ([`ChildRef`]) is either another node's index or a leaf: a run of
 //! [`Triangle4`](crate::geometry::triangle::Triangle4) blocks or of spheres.
 
+use glam::Vec4;
+
 use super::build::{MAX_LEAF, Node2};
 use crate::math::Aabb;
 
@@ -73,19 +75,19 @@ impl ChildRef {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Node4 {
-    pub bounds: [[f32; WIDTH]; 6],
+    pub bounds: [Vec4; 6],
     pub children: [ChildRef; WIDTH],
 }
 
 impl Node4 {
     const EMPTY: Node4 = Node4 {
         bounds: [
-            [f32::INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
+            Vec4::INFINITY,
+            Vec4::INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::NEG_INFINITY,
         ],
         children: [ChildRef::EMPTY; WIDTH],
     };
@@ -122,13 +124,24 @@ pub fn collapse(root: &Node2, sink: &mut impl LeafSink) -> (Vec<Node4>, ChildRef
 }
 
 fn emit(node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node4>) -> ChildRef {
-    let children = match node {
+    match node {
         Node2::Leaf { start, count, .. } => {
             debug_assert!(*count as usize <= MAX_LEAF);
-            return sink.leaf(*start as usize, *count as usize);
+            sink.leaf(*start as usize, *count as usize)
         }
-        Node2::Inner { children, .. } => children,
-    };
+        Node2::Inner { .. } => {
+            let index = nodes.len();
+            nodes.push(Node4::EMPTY);
+            fill(index, node, sink, nodes);
+            ChildRef::node(index)
+        }
+    }
+}
+
+/// The (up to four) children of a 4-wide node: the binary node's two children, with the
+/// inner child of largest surface area opened while there is room.
+fn open_children(node: &Node2) -> Vec<&Node2> {
+    let Node2::Inner { children, .. } = node else { return vec![node] };
     let mut open: Vec<&Node2> = children.iter().collect();
     while open.len() < WIDTH {
         let widest = open
@@ -142,13 +155,32 @@ fn emit(node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node4>) -> Child
         open.insert(i, &children[1]);
         open.insert(i, &children[0]);
     }
-    let index = nodes.len();
-    nodes.push(Node4::EMPTY);
-    for (lane, child) in open.into_iter().enumerate() {
-        let r = emit(child, sink, nodes);
+    open
+}
+
+/// Fills `nodes[index]` from the binary node `node`. The node's inner children are allocated
+/// next to each other before any of their subtrees, so that siblings share pages and
+/// neighbouring cache lines.
+fn fill(index: usize, node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node4>) {
+    let children = open_children(node);
+    let mut inner = Vec::new();
+    for (lane, child) in children.iter().enumerate() {
+        let r = match child {
+            Node2::Leaf { start, count, .. } => {
+                debug_assert!(*count as usize <= MAX_LEAF);
+                sink.leaf(*start as usize, *count as usize)
+            }
+            Node2::Inner { .. } => {
+                nodes.push(Node4::EMPTY);
+                inner.push((nodes.len() - 1, *child));
+                ChildRef::node(nodes.len() - 1)
+            }
+        };
         nodes[index].set(lane, child.bounds(), r);
     }
-    ChildRef::node(index)
+    for (i, child) in inner {
+        fill(i, child, sink, nodes);
+    }
 }
 
 #[cfg(test)]

@@ -47,6 +47,8 @@
 //! (`p = (1−u−v)·p0 + u·p1 + v·p2`), and the geometric normal is `(p1 − p0) × (p2 − p0)`.
 //! Triangles are two-sided.
 
+use glam::Vec4;
+
 use crate::math::{Aabb, Vec3};
 
 /// What [`intersect`] needs of a ray, computed once per ray: the ray's depth axis, the other
@@ -142,17 +144,17 @@ pub fn bounds(p: [Vec3; 3]) -> Aabb {
 /// Lanes per [`Triangle4`].
 pub const LANES: usize = 4;
 
-/// Four triangles in structure-of-arrays layout, `p[corner][axis][lane]`, for [`intersect4`].
-/// Unused lanes hold NaN corners, which never hit.
+/// Four triangles in structure-of-arrays layout, `p[corner][axis]` holding the four lanes,
+/// for [`intersect4`]. Unused lanes hold NaN corners, which never hit.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C)]
 pub struct Triangle4 {
-    pub p: [[[f32; LANES]; 3]; 3],
+    pub p: [[Vec4; 3]; 3],
 }
 
 impl Triangle4 {
     /// Four empty (NaN) lanes.
-    pub const EMPTY: Triangle4 = Triangle4 { p: [[[f32::NAN; LANES]; 3]; 3] };
+    pub const EMPTY: Triangle4 = Triangle4 { p: [[Vec4::NAN; 3]; 3] };
 
     /// Puts triangle `p` into `lane`.
     pub fn set(&mut self, lane: usize, p: [Vec3; 3]) {
@@ -171,56 +173,74 @@ impl Triangle4 {
     }
 }
 
-/// [`intersect`] on four triangles at once: the same arithmetic lane by lane (the compiler
-/// vectorises it), then the nearest hit among the lanes. Returns `(lane, hit)`; ties go to the
-/// lowest lane.
-#[inline]
-pub fn intersect4(frame: &RayFrame, tris: &Triangle4, tnear: f32, tfar: f32) -> Option<(usize, TriangleHit)> {
-    let RayFrame { org, kx, ky, kz, sx, sy, sz } = *frame;
-    let (ox, oy, oz) = (org[kx], org[ky], org[kz]);
-    let sheared = |corner: &[[f32; LANES]; 3]| {
-        let (px, py, pz) = (&corner[kx], &corner[ky], &corner[kz]);
-        let mut x = [0.0; LANES];
-        let mut y = [0.0; LANES];
-        let mut z = [0.0; LANES];
-        for l in 0..LANES {
-            let (dx, dy, dz) = (px[l] - ox, py[l] - oy, pz[l] - oz);
-            x[l] = dx - sx * dz;
-            y[l] = dy - sy * dz;
-            z[l] = sz * dz;
-        }
-        (x, y, z)
-    };
-    let (ax, ay, az) = sheared(&tris.p[0]);
-    let (bx, by, bz) = sheared(&tris.p[1]);
-    let (cx, cy, cz) = sheared(&tris.p[2]);
-    let mut t = [0.0; LANES];
-    let mut e1 = [0.0; LANES];
-    let mut e2 = [0.0; LANES];
-    let mut det = [0.0; LANES];
-    let mut ok = [false; LANES];
-    for l in 0..LANES {
-        let w0 = cx[l] * by[l] - cy[l] * bx[l];
-        let w1 = ax[l] * cy[l] - ay[l] * cx[l];
-        let w2 = bx[l] * ay[l] - by[l] * ax[l];
-        let inside = (w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0) || (w0 <= 0.0 && w1 <= 0.0 && w2 <= 0.0);
-        let d = w0 + w1 + w2;
-        let tl = (w0 * az[l] + w1 * bz[l] + w2 * cz[l]) / d;
-        ok[l] = inside & (d != 0.0) & (tl > tnear) & (tl < tfar);
-        (t[l], e1[l], e2[l], det[l]) = (tl, w1, w2, d);
-    }
-    let mut best: Option<usize> = None;
-    for l in 0..LANES {
-        if ok[l] && best.is_none_or(|b| t[l] < t[b]) {
-            best = Some(l);
+/// A [`RayFrame`] broadcast to four lanes, in the frame's axis order: origin `(x, y, z)` and
+/// shear `(sx, sy, sz)`.
+#[derive(Clone, Copy, Debug)]
+pub struct RayFrame4 {
+    pub org: [Vec4; 3],
+    pub shear: [Vec4; 3],
+    pub axes: [usize; 3],
+}
+
+impl RayFrame4 {
+    #[inline]
+    pub fn new(f: &RayFrame) -> Self {
+        RayFrame4 {
+            org: [Vec4::splat(f.org[f.kx]), Vec4::splat(f.org[f.ky]), Vec4::splat(f.org[f.kz])],
+            shear: [Vec4::splat(f.sx), Vec4::splat(f.sy), Vec4::splat(f.sz)],
+            axes: [f.kx, f.ky, f.kz],
         }
     }
-    best.map(|l| (l, TriangleHit { t: t[l], u: e1[l] / det[l], v: e2[l] / det[l] }))
+}
+
+/// One corner of four triangles in the ray's sheared frame: `(x', y', depth)` per lane,
+/// exactly as [`intersect`] computes them.
+#[inline(always)]
+fn shear4(frame: &RayFrame4, corner: &[Vec4; 3]) -> (Vec4, Vec4, Vec4) {
+    let [kx, ky, kz] = frame.axes;
+    let [ox, oy, oz] = frame.org;
+    let [sx, sy, sz] = frame.shear;
+    let (dx, dy, dz) = (corner[kx] - ox, corner[ky] - oy, corner[kz] - oz);
+    (dx - sx * dz, dy - sy * dz, sz * dz)
+}
+
+/// [`intersect`] on four triangles at once with 4-wide SIMD (glam's `Vec4`): the same
+/// operations in the same order, lane by lane, so the same bits; then the nearest hit among
+/// the lanes. Returns `(lane, hit)`; ties go to the lowest lane.
+#[inline(always)]
+pub fn intersect4(frame: &RayFrame4, tris: &Triangle4, tnear: f32, tfar: f32) -> Option<(usize, TriangleHit)> {
+    let (ax, ay, az) = shear4(frame, &tris.p[0]);
+    let (bx, by, bz) = shear4(frame, &tris.p[1]);
+    let (cx, cy, cz) = shear4(frame, &tris.p[2]);
+    let w0 = cx * by - cy * bx;
+    let w1 = ax * cy - ay * cx;
+    let w2 = bx * ay - by * ax;
+    let zero = Vec4::ZERO;
+    let inside =
+        (w0.cmpge(zero) & w1.cmpge(zero) & w2.cmpge(zero)) | (w0.cmple(zero) & w1.cmple(zero) & w2.cmple(zero));
+    let det = w0 + w1 + w2;
+    let t = (w0 * az + w1 * bz + w2 * cz) / det;
+    let ok = inside & det.cmpne(zero) & t.cmpgt(Vec4::splat(tnear)) & t.cmplt(Vec4::splat(tfar));
+    let mut mask = ok.bitmask();
+    if mask == 0 {
+        return None;
+    }
+    // The nearest of the lanes that hit (usually just one).
+    let mut best = mask.trailing_zeros() as usize;
+    mask &= mask - 1;
+    while mask != 0 {
+        let l = mask.trailing_zeros() as usize;
+        if t[l] < t[best] {
+            best = l;
+        }
+        mask &= mask - 1;
+    }
+    Some((best, TriangleHit { t: t[best], u: w1[best] / det[best], v: w2[best] / det[best] }))
 }
 
 /// Whether any of the four triangles is hit inside `(tnear, tfar)` (shadow rays).
 #[inline]
-pub fn occluded4(frame: &RayFrame, tris: &Triangle4, tnear: f32, tfar: f32) -> bool {
+pub fn occluded4(frame: &RayFrame4, tris: &Triangle4, tnear: f32, tfar: f32) -> bool {
     intersect4(frame, tris, tnear, tfar).is_some()
 }
 
@@ -348,7 +368,7 @@ mod tests {
                     }
                 }
             }
-            assert_eq!(intersect4(&frame, &t4, 0.0, INF), expect);
+            assert_eq!(intersect4(&RayFrame4::new(&frame), &t4, 0.0, INF), expect);
         }
     }
 
