@@ -3,7 +3,7 @@
 //! analytic hits through the `Accel` interface; bad input refused.
 
 use strahl::accel::{Accel, Hit};
-use strahl::bvh::Bvh;
+use strahl::bvh::{BuildOptions, Bvh};
 use strahl::geometry::triangle::{self, RayFrame};
 use strahl::geometry::{Plane, Sphere, plane, sphere};
 use strahl::math::{Aabb, Ray, Vec3};
@@ -232,4 +232,26 @@ fn coincident_triangles_build_and_trace() {
     let h = bvh.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)).unwrap().unwrap();
     assert_eq!((h.t, h.geom_id), (1.0, 0));
     assert!(h.prim_id < 5000);
+}
+
+#[test]
+fn deep_trees_trace_with_a_growable_stack() {
+    // Triangles at geometrically growing distances along x: the SAH peels them off one at a
+    // time, giving a tree deeper than the fixed traversal stack allows for.
+    let mut mesh = Mesh { name: "chain".into(), ..Default::default() };
+    for k in 0..2000 {
+        let x = 1.02f32.powi(k);
+        let i = mesh.positions.len() as u32;
+        mesh.positions.extend([Vec3::new(x, -1.0, -1.0), Vec3::new(x, 1.0, -1.0), Vec3::new(x, 0.0, 1.0)]);
+        mesh.indices.push([i, i + 1, i + 2]);
+    }
+    let scene = Scene { meshes: vec![mesh], ..Default::default() };
+    let bvh = Bvh::build_with(&scene, &BuildOptions { max_leaf: 1, traversal_cost: 1.0 }).unwrap();
+    assert!(bvh.stats().depth > 16, "depth {}", bvh.stats().depth);
+    // Rays along the chain from just before each triangle, and some from the far end back.
+    let mut rays: Vec<Ray> =
+        (0..2000).map(|k| Ray::new(Vec3::new(0.999 * 1.02f32.powi(k), 0.2, 0.1), Vec3::X)).collect();
+    rays.extend((0..100).map(|i| Ray::new(Vec3::new(1e18, 0.01 * i as f32 - 0.5, 0.0), -Vec3::X)));
+    let hits = assert_same(&scene, &bvh, &rays);
+    assert_eq!(hits, 2100);
 }

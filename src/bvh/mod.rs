@@ -38,10 +38,46 @@ pub enum Error {
     InvalidInput { object: String, problem: String },
 }
 
-/// Enough stack for any tree the build makes: its binary depth is at most
-/// `MAX_SAH_DEPTH + 32` (median splits below that depth halve the count), the 4-wide tree is
-/// no deeper, and each 4-wide level pushes at most three children.
-const STACK: usize = 3 * (build::MAX_SAH_DEPTH + 33);
+/// Entries of the fixed traversal stack, enough for trees up to 16 levels deep (each level
+/// leaves at most three children on the stack). Deeper trees (pathological input) traverse
+/// with a growable stack instead.
+const STACK: usize = 48;
+
+/// The traversal stack: a fixed array for the usual trees (cheap to set up per ray), a vector
+/// for deeper ones.
+trait Stack<T: Copy> {
+    fn push(&mut self, x: T);
+    fn pop(&mut self) -> Option<T>;
+}
+
+struct ArrayStack<T, const N: usize> {
+    items: [T; N],
+    len: usize,
+}
+
+impl<T: Copy, const N: usize> Stack<T> for ArrayStack<T, N> {
+    #[inline(always)]
+    fn push(&mut self, x: T) {
+        self.items[self.len] = x;
+        self.len += 1;
+    }
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        self.len = self.len.checked_sub(1)?;
+        Some(self.items[self.len])
+    }
+}
+
+impl<T: Copy> Stack<T> for Vec<T> {
+    #[inline(always)]
+    fn push(&mut self, x: T) {
+        Vec::push(self, x)
+    }
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        Vec::pop(self)
+    }
+}
 
 /// `1 + 2γ₃` (pbrt's γ_n = nε/(1 − nε), ε = 2⁻²⁴): scaling a slab test's exit distance by it
 /// makes the test conservative against the rounding of `(bound − org)·inv` (Ize, "Robust BVH
@@ -61,6 +97,8 @@ pub struct Bvh {
     planes: Vec<Plane>,
     spheres_geom_id: u32,
     planes_geom_id: u32,
+    /// Whether the tree is shallow enough for the fixed traversal stack.
+    shallow: bool,
 }
 
 /// Four triangles of a leaf and their ids, in three cache lines: the ids share the last line
@@ -209,7 +247,15 @@ impl Bvh {
             planes: scene.planes.clone(),
             spheres_geom_id: scene.spheres_geom_id(),
             planes_geom_id: scene.planes_geom_id(),
-        })
+            shallow: false,
+        }
+        .with_stack_choice())
+    }
+
+    /// Chooses the fixed stack when every path holds few enough inner nodes.
+    fn with_stack_choice(mut self) -> Self {
+        self.shallow = 3 * self.stats().depth <= STACK;
+        self
     }
 
     /// The bounds of everything in the tree (planes excluded).
@@ -259,12 +305,30 @@ impl Bvh {
     }
 
     /// The closest hit in the tree within `(ray.tnear, ray.tfar)`.
+    #[inline]
     fn intersect_tree(&self, ray: &Ray) -> Option<Hit> {
+        if self.shallow {
+            self.intersect_with(ray, ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 })
+        } else {
+            self.intersect_with(ray, Vec::new())
+        }
+    }
+
+    /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
+    #[inline]
+    fn occluded_tree(&self, ray: &Ray) -> bool {
+        if self.shallow {
+            self.occluded_with(ray, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
+        } else {
+            self.occluded_with(ray, Vec::new())
+        }
+    }
+
+    #[inline(always)]
+    fn intersect_with(&self, ray: &Ray, mut stack: impl Stack<(ChildRef, f32)>) -> Option<Hit> {
         let r = TraversalRay::new(ray);
         let mut best_t = ray.tfar;
         let mut found = None;
-        let mut stack = [(ChildRef::EMPTY, 0.0f32); STACK];
-        let mut sp = 0;
         let mut cur = self.root;
         loop {
             if cur.is_leaf() {
@@ -289,19 +353,34 @@ impl Bvh {
                 }
             } else if cur != ChildRef::EMPTY {
                 let node = &self.nodes[cur.index()];
-                let (entry, mut mask) = r.hit_boxes(node, best_t);
-                let entry: [f32; WIDTH] = entry.into();
-                let mut next = [(ChildRef::EMPTY, 0.0f32); WIDTH];
-                let mut k = 0;
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    next[k] = (node.children[lane], entry[lane]);
-                    k += 1;
-                }
-                if k > 0 {
-                    // Nearest first: sort the (at most four) children by entry distance, push
-                    // the others farthest first, and descend into the nearest.
+                let (entry, mask) = r.hit_boxes(node, best_t);
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    let rest = mask & (mask - 1);
+                    if rest == 0 {
+                        // One child: descend.
+                        cur = node.children[first];
+                        continue;
+                    }
+                    let entry: [f32; WIDTH] = entry.into();
+                    if rest & (rest - 1) == 0 {
+                        // Two children: descend into the nearer, push the farther.
+                        let second = rest.trailing_zeros() as usize;
+                        let (near, far) = if entry[second] < entry[first] { (second, first) } else { (first, second) };
+                        stack.push((node.children[far], entry[far]));
+                        cur = node.children[near];
+                        continue;
+                    }
+                    // Three or four: sort by entry distance, push the others farthest first.
+                    let mut next = [(ChildRef::EMPTY, 0.0f32); WIDTH];
+                    let mut k = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        next[k] = (node.children[lane], entry[lane]);
+                        k += 1;
+                    }
                     for i in 1..k {
                         let mut j = i;
                         while j > 0 && next[j].1 < next[j - 1].1 {
@@ -310,8 +389,7 @@ impl Bvh {
                         }
                     }
                     for &c in next[1..k].iter().rev() {
-                        stack[sp] = c;
-                        sp += 1;
+                        stack.push(c);
                     }
                     cur = next[0].0;
                     continue;
@@ -319,11 +397,9 @@ impl Bvh {
             }
             // Pop the next subtree the ray may still reach before its closest hit so far.
             loop {
-                if sp == 0 {
+                let Some((c, entry)) = stack.pop() else {
                     return found.map(|f| self.hit_of(ray, f));
-                }
-                sp -= 1;
-                let (c, entry) = stack[sp];
+                };
                 if entry <= best_t * EXIT_SCALE {
                     cur = c;
                     break;
@@ -332,11 +408,9 @@ impl Bvh {
         }
     }
 
-    /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
-    fn occluded_tree(&self, ray: &Ray) -> bool {
+    #[inline(always)]
+    fn occluded_with(&self, ray: &Ray, mut stack: impl Stack<ChildRef>) -> bool {
         let r = TraversalRay::new(ray);
-        let mut stack = [ChildRef::EMPTY; STACK];
-        let mut sp = 0;
         let mut cur = self.root;
         loop {
             if cur.is_leaf() {
@@ -358,16 +432,14 @@ impl Bvh {
                 let node = &self.nodes[cur.index()];
                 let (_, mut mask) = r.hit_boxes(node, ray.tfar);
                 while mask != 0 {
-                    stack[sp] = node.children[mask.trailing_zeros() as usize];
-                    sp += 1;
+                    stack.push(node.children[mask.trailing_zeros() as usize]);
                     mask &= mask - 1;
                 }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                Some(c) => cur = c,
+                None => return false,
             }
-            sp -= 1;
-            cur = stack[sp];
         }
     }
 
@@ -452,13 +524,21 @@ impl TraversalRay {
 /// `(bound − org)·inv` is `0·∞`): such a slab does not restrict the interval.
 #[inline(always)]
 fn keep_max(acc: Vec4, x: Vec4) -> Vec4 {
-    Vec4::select(x.cmpgt(acc), x, acc)
+    // On x86, glam's `max` is MAXPS, which returns its second operand when either is NaN:
+    // one instruction instead of a compare and a blend.
+    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+    return x.max(acc);
+    #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
+    return Vec4::select(x.cmpgt(acc), x, acc);
 }
 
 /// `min(acc, x)` per lane, keeping `acc` where `x` is NaN.
 #[inline(always)]
 fn keep_min(acc: Vec4, x: Vec4) -> Vec4 {
-    Vec4::select(x.cmplt(acc), x, acc)
+    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+    return x.min(acc);
+    #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
+    return Vec4::select(x.cmplt(acc), x, acc);
 }
 
 /// Rays that cannot be traced: a non-finite origin or direction (whose slab tests would be
