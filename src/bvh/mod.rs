@@ -119,7 +119,7 @@ impl Block {
 }
 
 /// Sizes of a built [`Bvh`], for reports.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stats {
     pub nodes: usize,
     pub leaves: usize,
@@ -128,6 +128,11 @@ pub struct Stats {
     pub spheres: usize,
     pub depth: usize,
     pub bytes: usize,
+    /// The surface-area cost of the tree in Embree's units (its `verbose=2` statistics):
+    /// each inner node costs its area relative to the root's, each leaf that area times its
+    /// blocks (or spheres). The expected node visits and block tests of a random ray.
+    pub sah_nodes: f64,
+    pub sah_leaves: f64,
 }
 
 /// The leaf sink of the collapse: copies each leaf's primitives into blocks or the sphere
@@ -268,29 +273,51 @@ impl Bvh {
 
     /// Node, leaf and primitive counts, depth and memory.
     pub fn stats(&self) -> Stats {
-        fn depth(bvh: &Bvh, r: ChildRef, leaves: &mut usize) -> usize {
-            if r.is_leaf() {
-                *leaves += 1;
-                return 0;
-            }
-            if r == ChildRef::EMPTY {
-                return 0;
-            }
-            let n = &bvh.nodes[r.index()];
-            1 + n.children.iter().map(|&c| depth(bvh, c, leaves)).max().unwrap_or(0)
+        struct Walk<'a> {
+            bvh: &'a Bvh,
+            root_area: f64,
+            leaves: usize,
+            sah_nodes: f64,
+            sah_leaves: f64,
         }
-        let mut leaves = 0;
-        let d = depth(self, self.root, &mut leaves);
+        impl Walk<'_> {
+            /// Visits `r` with box `b`; returns the number of inner levels below and at `r`.
+            fn visit(&mut self, r: ChildRef, b: Aabb) -> usize {
+                let rel = b.area() as f64 / self.root_area;
+                if r.is_leaf() {
+                    self.leaves += 1;
+                    self.sah_leaves += rel * r.range().1 as f64;
+                    return 0;
+                }
+                if r == ChildRef::EMPTY {
+                    return 0;
+                }
+                self.sah_nodes += rel;
+                let n = &self.bvh.nodes[r.index()];
+                let below = (0..WIDTH).map(|i| self.visit(n.children[i], n.child_bounds(i))).max();
+                1 + below.unwrap_or(0)
+            }
+        }
+        let mut walk = Walk {
+            bvh: self,
+            root_area: (self.bounds.area() as f64).max(f64::MIN_POSITIVE),
+            leaves: 0,
+            sah_nodes: 0.0,
+            sah_leaves: 0.0,
+        };
+        let depth = walk.visit(self.root, self.bounds);
         Stats {
             nodes: self.nodes.len(),
-            leaves,
+            leaves: walk.leaves,
             triangle_blocks: self.blocks.len(),
             triangles: self.blocks.iter().flat_map(|b| b.geom_ids).filter(|&m| m != u32::MAX).count(),
             spheres: self.spheres.len(),
-            depth: d,
+            depth,
             bytes: self.nodes.len() * size_of::<Node>()
                 + self.blocks.len() * size_of::<Block>()
                 + self.spheres.len() * (size_of::<Sphere>() + 4),
+            sah_nodes: walk.sah_nodes,
+            sah_leaves: walk.sah_leaves,
         }
     }
 
@@ -310,28 +337,43 @@ impl Bvh {
     /// The closest hit in the tree within `(ray.tnear, ray.tfar)`.
     #[inline]
     fn intersect_tree(&self, ray: &Ray) -> Option<Hit> {
-        if self.shallow {
-            self.intersect_with(ray, ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 })
-        } else {
-            self.intersect_with(ray, Vec::new())
+        let r = TraversalRay::new(ray);
+        match (self.shallow, r.axial) {
+            (true, false) => {
+                self.intersect_with::<false>(ray, &r, ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 })
+            }
+            (true, true) => {
+                self.intersect_with::<true>(ray, &r, ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 })
+            }
+            (false, false) => self.intersect_with::<false>(ray, &r, Vec::new()),
+            (false, true) => self.intersect_with::<true>(ray, &r, Vec::new()),
         }
     }
 
     /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
     #[inline]
     fn occluded_tree(&self, ray: &Ray) -> bool {
-        if self.shallow {
-            self.occluded_with(ray, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
-        } else {
-            self.occluded_with(ray, Vec::new())
+        let r = TraversalRay::new(ray);
+        match (self.shallow, r.axial) {
+            (true, false) => {
+                self.occluded_with::<false>(ray, &r, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
+            }
+            (true, true) => self.occluded_with::<true>(ray, &r, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 }),
+            (false, false) => self.occluded_with::<false>(ray, &r, Vec::new()),
+            (false, true) => self.occluded_with::<true>(ray, &r, Vec::new()),
         }
     }
 
     #[inline(always)]
-    fn intersect_with(&self, ray: &Ray, mut stack: impl Stack<(ChildRef, f32)>) -> Option<Hit> {
-        let r = TraversalRay::new(ray);
+    fn intersect_with<const AXIAL: bool>(
+        &self,
+        ray: &Ray,
+        r: &TraversalRay,
+        mut stack: impl Stack<(ChildRef, f32)>,
+    ) -> Option<Hit> {
         let mut best_t = ray.tfar;
         let mut found = None;
+        let mut frame = None;
         let mut cur = self.root;
         loop {
             if cur.is_leaf() {
@@ -345,9 +387,11 @@ impl Bvh {
                         }
                     }
                 } else {
+                    // The triangle test's frame, made when the ray first reaches a leaf.
+                    let frame = frame.get_or_insert_with(|| RayFrame4::new(&RayFrame::new(ray.org, ray.dir)));
                     for b in first..first + count {
                         if let Some((lane, hit)) =
-                            triangle::intersect4(&r.frame, &self.blocks[b].triangles, ray.tnear, best_t)
+                            triangle::intersect4(frame, &self.blocks[b].triangles, ray.tnear, best_t)
                         {
                             best_t = hit.t;
                             found = Some(Found::Triangle { block: b, lane, hit });
@@ -356,7 +400,7 @@ impl Bvh {
                 }
             } else if cur != ChildRef::EMPTY {
                 let node = &self.nodes[cur.index()];
-                let (entry, mask) = r.hit_boxes(node, best_t);
+                let (entry, mask) = r.hit_boxes::<AXIAL>(node, best_t);
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     let rest = mask & (mask - 1);
@@ -411,8 +455,8 @@ impl Bvh {
     }
 
     #[inline(always)]
-    fn occluded_with(&self, ray: &Ray, mut stack: impl Stack<ChildRef>) -> bool {
-        let r = TraversalRay::new(ray);
+    fn occluded_with<const AXIAL: bool>(&self, ray: &Ray, r: &TraversalRay, mut stack: impl Stack<ChildRef>) -> bool {
+        let mut frame = None;
         let mut cur = self.root;
         loop {
             if cur.is_leaf() {
@@ -424,15 +468,16 @@ impl Bvh {
                         }
                     }
                 } else {
+                    let frame = frame.get_or_insert_with(|| RayFrame4::new(&RayFrame::new(ray.org, ray.dir)));
                     for block in &self.blocks[first..first + count] {
-                        if triangle::occluded4(&r.frame, &block.triangles, ray.tnear, ray.tfar) {
+                        if triangle::occluded4(frame, &block.triangles, ray.tnear, ray.tfar) {
                             return true;
                         }
                     }
                 }
             } else if cur != ChildRef::EMPTY {
                 let node = &self.nodes[cur.index()];
-                let (_, mut mask) = r.hit_boxes(node, ray.tfar);
+                let (_, mut mask) = r.hit_boxes::<AXIAL>(node, ray.tfar);
                 while mask != 0 {
                     stack.push(node.children[mask.trailing_zeros() as usize]);
                     mask &= mask - 1;
@@ -471,59 +516,69 @@ enum Found {
     Sphere { index: usize, t: f32 },
 }
 
-/// A ray prepared for traversal: the triangle test's frame, and for the slab test the origin
+/// A ray prepared for the slab tests: the origin
 /// and inverse direction broadcast to four lanes, and which slab of each axis the ray enters
 /// first.
 struct TraversalRay {
-    frame: RayFrame4,
     org: [Vec4; 3],
     inv: [Vec4; 3],
+    /// `inv·(1 + 2γ₃)`, for the far slabs (see [`EXIT_SCALE`]).
+    inv_far: [Vec4; 3],
     /// Per axis, the index into [`Node::bounds`] of the near slab (`min` for a positive
     /// direction, `max` for a negative one) and of the far slab.
     near: [usize; 3],
     far: [usize; 3],
     tnear: Vec4,
+    /// Whether some `1/d` is infinite or zero (an axis-parallel ray, or a direction component
+    /// beyond what f32 inverts): then a slab test can meet `0·∞` and must ignore the NaN.
+    axial: bool,
 }
 
 impl TraversalRay {
     #[inline]
     fn new(ray: &Ray) -> Self {
         // 1/±0 = ±∞: the slab of an axis the ray runs parallel to is (−∞, ∞) from inside and
-        // empty from outside; on its plane, 0·∞ = NaN, which the tests below ignore.
+        // empty from outside; on its plane, 0·∞ = NaN, which the axial test ignores.
         let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
         let near = std::array::from_fn(|a| if inv[a].is_sign_negative() { a + 3 } else { a });
         let far = std::array::from_fn(|a| if inv[a].is_sign_negative() { a } else { a + 3 });
         TraversalRay {
-            frame: RayFrame4::new(&RayFrame::new(ray.org, ray.dir)),
             org: [Vec4::splat(ray.org.x), Vec4::splat(ray.org.y), Vec4::splat(ray.org.z)],
             inv: inv.map(Vec4::splat),
+            inv_far: inv.map(|i| Vec4::splat(i * EXIT_SCALE)),
             near,
             far,
             tnear: Vec4::splat(ray.tnear),
+            axial: inv.iter().any(|i| !i.is_finite() || *i == 0.0),
         }
     }
 
     /// Slab tests of the node's boxes against `(tnear, tfar)`: entry distances, and a bit
-    /// mask of the boxes the ray enters.
+    /// mask of the boxes the ray enters. `AXIAL` must be `self.axial`: the general test
+    /// reduces the slabs in a balanced tree (a shorter dependency chain), the axial one in a
+    /// chain that keeps the accumulated value where a slab gives NaN.
     #[inline(always)]
-    fn hit_boxes(&self, node: &Node, tfar: f32) -> ([f32; WIDTH], u32) {
+    fn hit_boxes<const AXIAL: bool>(&self, node: &Node, tfar: f32) -> ([f32; WIDTH], u32) {
         let b = &node.bounds;
         let [ox, oy, oz] = self.org;
         let [ix, iy, iz] = self.inv;
-        let tfar = Vec4::splat(tfar);
+        let [fx, fy, fz] = self.inv_far;
+        let tfar = Vec4::splat(tfar * EXIT_SCALE);
         let mut entry = [0.0; WIDTH];
         let mut mask = 0;
         for c in 0..node::CHUNKS {
-            let t0 = keep_max(
-                keep_max(keep_max(self.tnear, (b[self.near[0]][c] - ox) * ix), (b[self.near[1]][c] - oy) * iy),
-                (b[self.near[2]][c] - oz) * iz,
-            );
-            let t1 = keep_min(
-                keep_min(keep_min(tfar, (b[self.far[0]][c] - ox) * ix), (b[self.far[1]][c] - oy) * iy),
-                (b[self.far[2]][c] - oz) * iz,
-            );
+            let n = [(b[self.near[0]][c] - ox) * ix, (b[self.near[1]][c] - oy) * iy, (b[self.near[2]][c] - oz) * iz];
+            let f = [(b[self.far[0]][c] - ox) * fx, (b[self.far[1]][c] - oy) * fy, (b[self.far[2]][c] - oz) * fz];
+            let (t0, t1) = if AXIAL {
+                (
+                    keep_max(keep_max(keep_max(self.tnear, n[0]), n[1]), n[2]),
+                    keep_min(keep_min(keep_min(tfar, f[0]), f[1]), f[2]),
+                )
+            } else {
+                (n[0].max(n[1]).max(n[2].max(self.tnear)), f[0].min(f[1]).min(f[2].min(tfar)))
+            };
             entry[4 * c..4 * c + 4].copy_from_slice(&t0.to_array());
-            mask |= t0.cmple(t1 * EXIT_SCALE).bitmask() << (4 * c);
+            mask |= t0.cmple(t1).bitmask() << (4 * c);
         }
         (entry, mask)
     }
