@@ -281,14 +281,14 @@ impl fmt::Display for Report {
         }
         write!(f, "{:<24}", "build ms")?;
         for b in &self.builds {
-            write!(f, "{:>12}", format!("{} thr", b.threads))?;
+            write!(f, "{:>14}", format!("{} thr", b.threads))?;
         }
         writeln!(f)?;
         let rows: [(&str, fn(&BuildTime) -> f64); 2] = [("embree", |b| b.embree_ms), ("native", |b| b.native_ms)];
         for (name, get) in rows {
             write!(f, "{name:<24}")?;
             for b in &self.builds {
-                write!(f, "{:>12.1}", get(b))?;
+                write!(f, "{:>14.1}", get(b))?;
             }
             writeln!(f)?;
         }
@@ -300,7 +300,7 @@ impl fmt::Display for Report {
         }
         write!(f, "{:<24}", "Mrays/s")?;
         for (kind, threads) in &columns {
-            write!(f, "{:>12}", format!("{kind} {threads}t"))?;
+            write!(f, "{:>14}", format!("{kind} {threads}t"))?;
         }
         writeln!(f)?;
         let engines: Vec<Engine> =
@@ -309,8 +309,8 @@ impl fmt::Display for Report {
             write!(f, "{:<24}", engine.name())?;
             for &(kind, threads) in &columns {
                 match self.get(kind, threads, engine) {
-                    Some(t) => write!(f, "{:>12.2}", t.mrays_per_s)?,
-                    None => write!(f, "{:>12}", "-")?,
+                    Some(t) => write!(f, "{:>14.2}", t.mrays_per_s)?,
+                    None => write!(f, "{:>14}", "-")?,
                 }
             }
             writeln!(f)?;
@@ -320,8 +320,8 @@ impl fmt::Display for Report {
                 let n = self.get(kind, threads, Engine::Native).and_then(get);
                 let e = self.get(kind, threads, Engine::EmbreeSingle).and_then(get);
                 match (n, e) {
-                    (Some(n), Some(e)) => write!(f, "{:>12.2}", e / n)?,
-                    _ => write!(f, "{:>12}", "-")?,
+                    (Some(n), Some(e)) => write!(f, "{:>14.2}", e / n)?,
+                    _ => write!(f, "{:>14}", "-")?,
                 }
             }
             writeln!(f)
@@ -334,8 +334,8 @@ impl fmt::Display for Report {
                 write!(f, "{:<24}", engine.name())?;
                 for &(kind, threads) in &columns {
                     match self.get(kind, threads, engine).and_then(|t| t.mrays_per_cpu_s) {
-                        Some(m) => write!(f, "{m:>12.2}")?,
-                        None => write!(f, "{:>12}", "-")?,
+                        Some(m) => write!(f, "{m:>14.2}")?,
+                        None => write!(f, "{:>14}", "-")?,
                     }
                 }
                 writeln!(f)?;
@@ -346,8 +346,8 @@ impl fmt::Display for Report {
         write!(f, "{:<24}", "hit %")?;
         for &(kind, threads) in &columns {
             match self.get(kind, threads, Engine::Native) {
-                Some(n) => write!(f, "{:>12.1}", 100.0 * n.hits as f64 / n.rays.max(1) as f64)?,
-                None => write!(f, "{:>12}", "-")?,
+                Some(n) => write!(f, "{:>14.1}", 100.0 * n.hits as f64 / n.rays.max(1) as f64)?,
+                None => write!(f, "{:>14}", "-")?,
             }
         }
         Ok(())
