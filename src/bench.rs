@@ -284,11 +284,10 @@ impl fmt::Display for Report {
             write!(f, "{:>14}", format!("{} thr", b.threads))?;
         }
         writeln!(f)?;
-        let rows: [(&str, fn(&BuildTime) -> f64); 2] = [("embree", |b| b.embree_ms), ("native", |b| b.native_ms)];
-        for (name, get) in rows {
+        for (name, native) in [("embree", false), ("native", true)] {
             write!(f, "{name:<24}")?;
             for b in &self.builds {
-                write!(f, "{:>14.1}", get(b))?;
+                write!(f, "{:>14.1}", if native { b.native_ms } else { b.embree_ms })?;
             }
             writeln!(f)?;
         }
