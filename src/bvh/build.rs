@@ -47,19 +47,24 @@ const PARALLEL: usize = 4096;
 /// Chunk of primitives per rayon task when binning.
 const CHUNK: usize = 16 * 1024;
 
-/// A primitive as the build sees it: its bounds, centroid, whether it is a sphere (leaves
+/// A primitive as the build sees it (32 bytes): its bounds, whether it is a sphere (leaves
 /// hold one kind only), and its index in the caller's list.
 #[derive(Clone, Copy, Debug)]
 pub struct PrimRef {
     pub bounds: Aabb,
-    pub centroid: Vec3,
     pub id: u32,
     pub is_sphere: bool,
 }
 
 impl PrimRef {
     pub fn new(bounds: Aabb, id: u32, is_sphere: bool) -> Self {
-        PrimRef { bounds, centroid: bounds.centroid(), id, is_sphere }
+        PrimRef { bounds, id, is_sphere }
+    }
+
+    /// The centre of the box (computed where needed: a smaller ref streams faster).
+    #[inline]
+    pub fn centroid(&self) -> Vec3 {
+        self.bounds.centroid()
     }
 }
 
@@ -117,7 +122,7 @@ impl Summary {
     fn of(refs: &[PrimRef]) -> Summary {
         refs.iter().fold(Summary::EMPTY, |s, r| Summary {
             bounds: s.bounds.union(r.bounds),
-            centroids: s.centroids.grow(r.centroid),
+            centroids: s.centroids.grow(r.centroid()),
             spheres: s.spheres + r.is_sphere as usize,
         })
     }
@@ -158,8 +163,9 @@ type Bins = [[Bin; BINS]; 3];
 fn bin_refs(refs: &[PrimRef], binning: &Binning) -> Bins {
     let mut bins = [[EMPTY_BIN; BINS]; 3];
     for r in refs {
+        let c = r.centroid();
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[binning.bin(r.centroid, axis)];
+            let b = &mut axis_bins[binning.bin(c, axis)];
             b.bounds = b.bounds.union(r.bounds);
             b.count += 1;
         }
@@ -255,7 +261,7 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
     let mid = match split {
         // A leaf of mixed kinds must be split by kind first.
         _ if mixed && n <= max_leaf => partition(refs, |r| !r.is_sphere),
-        Some((_, axis, plane, binning)) => partition(refs, |r| binning.bin(r.centroid, axis) < plane),
+        Some((_, axis, plane, binning)) => partition(refs, |r| binning.bin(r.centroid(), axis) < plane),
         // All centroids coincide, or the tree is deep: split by kind, else in the middle.
         None if mixed => partition(refs, |r| !r.is_sphere),
         None => n / 2,
