@@ -2,7 +2,10 @@
 //! pure-Rust BVH that renders the same scenes and cross-checks Embree's hits.
 
 pub mod accel;
+pub mod bench;
+pub mod bvh;
 pub mod camera;
+pub mod crosscheck;
 pub mod embree;
 pub mod film;
 pub mod geometry;
@@ -15,6 +18,7 @@ pub mod optics;
 pub mod sampler;
 pub mod scene;
 pub mod surface;
+pub mod workload;
 
 pub use accel::{Accel, Hit, TraceError};
 pub use math::{Aabb, Ray, Vec2, Vec3};

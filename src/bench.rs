@@ -1,0 +1,384 @@
+//! Throughput of the backends on one scene: build time, and Mrays/s for Embree single rays
+//! (`rtcIntersect1`), Embree 8-wide packets (`rtcIntersect8` through
+//! [`Accel::intersect_batch`]) and the native BVH, for each ray kind and thread count, on
+//! exactly the same rays.
+//!
+//! Each figure is the median of a few runs; a run traces every ray once, in chunks spread over
+//! a rayon pool of the given size whose workers flush denormals to zero (as Embree asks).
+//! Besides wall-clock Mrays/s, where Linux tells (`/proc/self/task/*/schedstat`), each run
+//! also records Mrays per CPU-second of the whole process: on a machine shared with other
+//! work, time spent waiting for a core inflates the wall clock but not that figure.
+
+use std::fmt;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::accel::{Accel, Hit, TraceError};
+use crate::bvh::{self, Bvh};
+use crate::embree::{self, BuildOptions, Device, DeviceOptions, EmbreeAccel};
+use crate::math::Ray;
+use crate::scene::Scene;
+use crate::workload::{self, RayKind};
+
+/// Rays per task handed to the pool (and per `intersect_batch` call).
+const CHUNK: usize = 1024;
+
+/// What to measure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Config {
+    /// Rays per kind (primary rays: the nearest square image, see [`workload::primary_side`]).
+    pub rays: usize,
+    pub kinds: Vec<RayKind>,
+    pub threads: Vec<usize>,
+    /// The tracers to measure.
+    pub engines: Vec<Engine>,
+    /// Runs per figure; the median is reported.
+    pub runs: usize,
+    /// Seed of the random rays.
+    pub seed: u64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            rays: 1 << 20,
+            kinds: RayKind::ALL.to_vec(),
+            threads: vec![1, 2],
+            engines: Engine::ALL.to_vec(),
+            runs: 3,
+            seed: 1,
+        }
+    }
+}
+
+/// The tracers compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Engine {
+    /// `EmbreeAccel::intersect`, one `rtcIntersect1` per ray.
+    EmbreeSingle,
+    /// `EmbreeAccel::intersect_batch`, `rtcIntersect8` on consecutive rays.
+    EmbreePacket,
+    /// `Bvh::intersect`, one ray at a time.
+    Native,
+}
+
+impl Engine {
+    pub const ALL: [Engine; 3] = [Engine::EmbreeSingle, Engine::EmbreePacket, Engine::Native];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Engine::EmbreeSingle => "embree rtcIntersect1",
+            Engine::EmbreePacket => "embree rtcIntersect8",
+            Engine::Native => "native",
+        }
+    }
+}
+
+impl std::str::FromStr for Engine {
+    type Err = String;
+
+    /// `embree1`, `embree8` or `native`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "embree1" => Ok(Engine::EmbreeSingle),
+            "embree8" => Ok(Engine::EmbreePacket),
+            "native" => Ok(Engine::Native),
+            _ => Err(format!("unknown engine '{s}' (expected embree1, embree8 or native)")),
+        }
+    }
+}
+
+/// One throughput figure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Throughput {
+    pub kind: RayKind,
+    pub threads: usize,
+    pub engine: Engine,
+    pub rays: usize,
+    /// Rays that hit something (the same for every engine, up to edge cases; see `crosscheck`).
+    pub hits: usize,
+    /// Median over the runs, and every run.
+    pub mrays_per_s: f64,
+    pub runs: Vec<f64>,
+    /// Median Mrays per CPU-second of the process, where the OS reports CPU time.
+    pub mrays_per_cpu_s: Option<f64>,
+}
+
+/// Build times in milliseconds (median over the runs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildTime {
+    pub threads: usize,
+    pub embree_ms: f64,
+    pub native_ms: f64,
+}
+
+/// Everything [`run`] measured.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub triangles: usize,
+    pub spheres: usize,
+    pub planes: usize,
+    pub builds: Vec<BuildTime>,
+    /// The shape of the native BVH.
+    pub native: Option<bvh::Stats>,
+    pub throughput: Vec<Throughput>,
+}
+
+/// What can stop a benchmark.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Embree(#[from] embree::Error),
+    #[error(transparent)]
+    Native(#[from] bvh::Error),
+    #[error(transparent)]
+    Trace(#[from] TraceError),
+    #[error("cannot start {threads} threads: {message}")]
+    Threads { threads: usize, message: String },
+}
+
+/// A rayon pool of `threads` workers that flush denormals to zero.
+pub fn pool(threads: usize) -> Result<rayon::ThreadPool, Error> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .start_handler(|_| embree::enable_flush_to_zero())
+        .build()
+        .map_err(|e| Error::Threads { threads, message: e.to_string() })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() { f64::NAN } else { v[v.len() / 2] }
+}
+
+/// Seconds `f` takes.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let start = Instant::now();
+    let out = f();
+    (out, start.elapsed().as_secs_f64())
+}
+
+/// CPU seconds all threads of this process have run so far (Linux; `None` elsewhere).
+pub fn process_cpu_seconds() -> Option<f64> {
+    let mut ns = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(ns as f64 * 1e-9)
+}
+
+/// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
+pub fn trace<A: Accel>(accel: &A, rays: &[Ray], hits: &mut [Option<Hit>], packets: bool) -> Result<(), TraceError> {
+    rays.par_chunks(CHUNK).zip(hits.par_chunks_mut(CHUNK)).try_for_each(|(rays, hits)| {
+        if packets {
+            return accel.intersect_batch(rays, hits);
+        }
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            *hit = accel.intersect(ray)?;
+        }
+        Ok(())
+    })
+}
+
+/// Measures build times and throughput for `scene` as `config` says.
+pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
+    let mut report = Report {
+        triangles: scene.triangle_count(),
+        spheres: scene.spheres.len(),
+        planes: scene.planes.len(),
+        ..Default::default()
+    };
+    // The rays, once for all: secondary rays from Embree's primary hits.
+    let mut ray_sets = Vec::new();
+    for &threads in &config.threads {
+        let pool = pool(threads)?;
+        let device = Device::with_options(DeviceOptions { threads: Some(threads) })?;
+        let mut embree_ms = Vec::new();
+        let mut native_ms = Vec::new();
+        let mut built = None;
+        for _ in 0..config.runs.max(1) {
+            let (embree, s) = pool.install(|| timed(|| EmbreeAccel::build(&device, scene, BuildOptions::default())));
+            embree_ms.push(1e3 * s);
+            let (native, s) = pool.install(|| timed(|| Bvh::build(scene)));
+            native_ms.push(1e3 * s);
+            built = Some((embree?, native?));
+        }
+        report.builds.push(BuildTime { threads, embree_ms: median(embree_ms), native_ms: median(native_ms) });
+        let (embree, native) = built.expect("at least one run");
+        report.native = Some(native.stats());
+        if ray_sets.is_empty() {
+            for &kind in &config.kinds {
+                let rays = pool.install(|| workload::rays(scene, kind, config.rays, config.seed, &embree))?;
+                ray_sets.push((kind, rays));
+            }
+        }
+        for (kind, rays) in &ray_sets {
+            // Runs interleave the engines (A B C A B C ...), so that a change in the machine's
+            // load hits all of them alike.
+            let mut hits = vec![vec![None; rays.len()]; Engine::ALL.len()];
+            let mut runs = vec![Vec::new(); Engine::ALL.len()];
+            let mut cpu_runs = vec![Vec::new(); Engine::ALL.len()];
+            for _ in 0..config.runs.max(1) {
+                for (e, engine) in config.engines.iter().enumerate() {
+                    let hits = &mut hits[e];
+                    let cpu_before = process_cpu_seconds();
+                    let (result, s) = pool.install(|| {
+                        timed(|| match engine {
+                            Engine::EmbreeSingle => trace(&embree, rays, hits, false),
+                            Engine::EmbreePacket => trace(&embree, rays, hits, true),
+                            Engine::Native => trace(&native, rays, hits, false),
+                        })
+                    });
+                    result?;
+                    runs[e].push(rays.len() as f64 / s / 1e6);
+                    if let (Some(before), Some(after)) = (cpu_before, process_cpu_seconds()) {
+                        cpu_runs[e].push(rays.len() as f64 / (after - before) / 1e6);
+                    }
+                }
+            }
+            for (e, &engine) in config.engines.iter().enumerate() {
+                report.throughput.push(Throughput {
+                    kind: *kind,
+                    threads,
+                    engine,
+                    rays: rays.len(),
+                    hits: hits[e].iter().filter(|h| h.is_some()).count(),
+                    mrays_per_s: median(runs[e].clone()),
+                    runs: std::mem::take(&mut runs[e]),
+                    mrays_per_cpu_s: (!cpu_runs[e].is_empty()).then(|| median(std::mem::take(&mut cpu_runs[e]))),
+                });
+            }
+        }
+    }
+    Ok(report)
+}
+
+impl Report {
+    /// The figure for `kind`, `threads`, `engine`, if measured.
+    pub fn get(&self, kind: RayKind, threads: usize, engine: Engine) -> Option<&Throughput> {
+        self.throughput.iter().find(|t| t.kind == kind && t.threads == threads && t.engine == engine)
+    }
+}
+
+impl fmt::Display for Report {
+    /// A table: build times, then Mrays/s per engine with one column per kind and thread
+    /// count, then native's time relative to Embree's single rays (1.00 = as fast).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "{} triangles, {} spheres, {} planes", self.triangles, self.spheres, self.planes)?;
+        if let Some(s) = &self.native {
+            writeln!(
+                f,
+                "native BVH: {} nodes, {} leaves, {} triangle blocks ({:.2} triangles each), depth {}, {:.1} MB",
+                s.nodes,
+                s.leaves,
+                s.triangle_blocks,
+                s.triangles as f64 / s.triangle_blocks.max(1) as f64,
+                s.depth,
+                s.bytes as f64 / 1e6
+            )?;
+        }
+        write!(f, "{:<24}", "build ms")?;
+        for b in &self.builds {
+            write!(f, "{:>14}", format!("{} thr", b.threads))?;
+        }
+        writeln!(f)?;
+        for (name, native) in [("embree", false), ("native", true)] {
+            write!(f, "{name:<24}")?;
+            for b in &self.builds {
+                write!(f, "{:>14.1}", if native { b.native_ms } else { b.embree_ms })?;
+            }
+            writeln!(f)?;
+        }
+        let mut columns: Vec<(RayKind, usize)> = Vec::new();
+        for t in &self.throughput {
+            if !columns.contains(&(t.kind, t.threads)) {
+                columns.push((t.kind, t.threads));
+            }
+        }
+        write!(f, "{:<24}", "Mrays/s")?;
+        for (kind, threads) in &columns {
+            write!(f, "{:>14}", format!("{kind} {threads}t"))?;
+        }
+        writeln!(f)?;
+        let engines: Vec<Engine> =
+            Engine::ALL.into_iter().filter(|&e| self.throughput.iter().any(|t| t.engine == e)).collect();
+        for &engine in &engines {
+            write!(f, "{:<24}", engine.name())?;
+            for &(kind, threads) in &columns {
+                match self.get(kind, threads, engine) {
+                    Some(t) => write!(f, "{:>14.2}", t.mrays_per_s)?,
+                    None => write!(f, "{:>14}", "-")?,
+                }
+            }
+            writeln!(f)?;
+        }
+        let ratio = |f: &mut fmt::Formatter<'_>, get: fn(&Throughput) -> Option<f64>| -> fmt::Result {
+            for &(kind, threads) in &columns {
+                let n = self.get(kind, threads, Engine::Native).and_then(get);
+                let e = self.get(kind, threads, Engine::EmbreeSingle).and_then(get);
+                match (n, e) {
+                    (Some(n), Some(e)) => write!(f, "{:>14.2}", e / n)?,
+                    _ => write!(f, "{:>14}", "-")?,
+                }
+            }
+            writeln!(f)
+        };
+        write!(f, "{:<24}", "native time / embree1")?;
+        ratio(f, |t| Some(t.mrays_per_s))?;
+        if self.throughput.iter().any(|t| t.mrays_per_cpu_s.is_some()) {
+            writeln!(f, "Mrays per CPU-second (insensitive to waiting for a core)")?;
+            for &engine in &engines {
+                write!(f, "{:<24}", engine.name())?;
+                for &(kind, threads) in &columns {
+                    match self.get(kind, threads, engine).and_then(|t| t.mrays_per_cpu_s) {
+                        Some(m) => write!(f, "{m:>14.2}")?,
+                        None => write!(f, "{:>14}", "-")?,
+                    }
+                }
+                writeln!(f)?;
+            }
+            write!(f, "{:<24}", "native CPU / embree1")?;
+            ratio(f, |t| t.mrays_per_cpu_s)?;
+        }
+        write!(f, "{:<24}", "hit %")?;
+        for &(kind, threads) in &columns {
+            match self.get(kind, threads, Engine::Native) {
+                Some(n) => write!(f, "{:>14.1}", 100.0 * n.hits as f64 / n.rays.max(1) as f64)?,
+                None => write!(f, "{:>14}", "-")?,
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{Aabb, Vec3};
+    use crate::scene::procedural;
+
+    #[test]
+    fn a_small_run_measures_every_engine_on_the_same_rays() {
+        let b = Aabb::new(Vec3::splat(-1.0), Vec3::ONE);
+        let scene = Scene { spheres: procedural::random_spheres(50, b, (0.05, 0.2), 1), ..Default::default() };
+        let config = Config {
+            rays: 4096,
+            kinds: vec![RayKind::Primary, RayKind::Random],
+            threads: vec![1, 2],
+            runs: 1,
+            ..Config::default()
+        };
+        let report = run(&scene, &config).unwrap();
+        assert_eq!(report.builds.len(), 2);
+        assert_eq!(report.throughput.len(), 2 * 2 * 3);
+        for kind in [RayKind::Primary, RayKind::Random] {
+            let hits: Vec<usize> = Engine::ALL.iter().map(|&e| report.get(kind, 2, e).unwrap().hits).collect();
+            assert!(hits[0] > 0 && hits.iter().all(|&h| h == hits[0]), "{kind}: {hits:?}");
+        }
+        assert!(report.throughput.iter().all(|t| t.mrays_per_s > 0.0 && t.rays == 4096));
+        let table = report.to_string();
+        assert!(table.contains("primary 1t") && table.contains("native time / embree1"), "{table}");
+    }
+}

@@ -1,0 +1,238 @@
+//! The standard ray sets that `crosscheck` and `bench` trace through a scene: coherent primary
+//! rays, incoherent random rays, and secondary (reflected) rays. Deterministic for a given
+//! scene, count and seed, so every backend traces exactly the same rays.
+
+use std::fmt;
+use std::str::FromStr;
+
+use rayon::prelude::*;
+
+use crate::accel::{Accel, TraceError};
+use crate::math::{Aabb, Ray, Vec3, offset_ray_origin};
+use crate::scene::{Scene, procedural};
+
+/// Which rays to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayKind {
+    /// One ray through each pixel centre of a square pinhole image (vertical fov 40°) that
+    /// frames the scene's bounds, in 4×2-pixel tiles (the order packets like).
+    Primary,
+    /// Rays from points uniform in 1.5× the scene's bounding box, in uniformly random
+    /// directions ([`procedural::random_rays`]).
+    Random,
+    /// The mirror reflections of primary rays at their hits, leaving from the hit point moved
+    /// off the surface with [`offset_ray_origin`].
+    Secondary,
+}
+
+impl RayKind {
+    pub const ALL: [RayKind; 3] = [RayKind::Primary, RayKind::Random, RayKind::Secondary];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Primary => "primary",
+            RayKind::Random => "random",
+            RayKind::Secondary => "secondary",
+        }
+    }
+}
+
+impl fmt::Display for RayKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for RayKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        RayKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown ray kind '{s}' (expected primary, random or secondary)"))
+    }
+}
+
+/// Vertical field of view of the primary rays, degrees.
+pub const PRIMARY_FOV_DEG: f32 = 40.0;
+
+/// A pinhole camera looking along −z at the centre of `bounds` from far enough away that the
+/// bounding sphere fills the field of view: `(eye, target, up)`.
+pub fn framing(bounds: Aabb) -> (Vec3, Vec3, Vec3) {
+    let target = bounds.centroid();
+    let radius = (0.5 * bounds.extent().length()).max(f32::MIN_POSITIVE);
+    let distance = radius / (0.5 * PRIMARY_FOV_DEG.to_radians()).sin();
+    (target + distance * Vec3::Z, target, Vec3::Y)
+}
+
+/// The lecture's pinhole rays for a `width`×`height` image from `eye` towards `target`:
+/// `w = (e − z)/|e − z|`, `u = up × w`, `v = w × u`, image plane at `d = 1` with `t = tan(fov/2)`,
+/// `r = t·aspect`, and through pixel `(x, y)` the direction `s = u_s·u + v_s·v − d·w` with
+/// `u_s = l + (r − l)(x + 0.5)/W`, `v_s = t + (b − t)(y + 0.5)/H`. Rays come in 4×2 tiles
+/// (row-major tiles, row-major pixels within each); edge tiles are clipped.
+pub fn pinhole_rays(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Vec<Ray> {
+    let w = (eye - target).normalize();
+    let u = up.cross(w).normalize();
+    let v = w.cross(u);
+    let d = 1.0;
+    let top = d * (0.5 * fov_deg.to_radians()).tan();
+    let right = top * width as f32 / height as f32;
+    let (l, r, b, t) = (-right, right, -top, top);
+    let ray = |x: u32, y: u32| {
+        let us = l + (r - l) * (x as f32 + 0.5) / width as f32;
+        let vs = t + (b - t) * (y as f32 + 0.5) / height as f32;
+        let s = us * u + vs * v - d * w;
+        Ray::new(eye, s.normalize())
+    };
+    let (tw, th) = (4, 2);
+    let mut rays = Vec::with_capacity(width as usize * height as usize);
+    for ty in (0..height).step_by(th) {
+        for tx in (0..width).step_by(tw) {
+            for y in ty..(ty + th as u32).min(height) {
+                for x in tx..(tx + tw as u32).min(width) {
+                    rays.push(ray(x, y));
+                }
+            }
+        }
+    }
+    rays
+}
+
+/// The side of the square primary image for about `n` rays: `⌈√n⌉` rounded up to a multiple
+/// of 8 (1024 for `n = 2²⁰`, 1000 for a million).
+pub fn primary_side(n: usize) -> u32 {
+    ((n as f64).sqrt().ceil() as u32).div_ceil(8) * 8
+}
+
+/// Primary rays framing `scene` (see [`RayKind::Primary`]), about `n` of them.
+pub fn primary(scene: &Scene, n: usize) -> Vec<Ray> {
+    let side = primary_side(n);
+    let (eye, target, up) = framing(scene.bounds());
+    pinhole_rays(eye, target, up, PRIMARY_FOV_DEG, side, side)
+}
+
+/// Exactly `n` rays of `kind` through `scene`. Secondary rays need the primary rays' hits:
+/// `tracer` finds them (pass the reference backend; every backend then traces the same rays).
+/// The primary image grows until it has `n` hits; a scene nothing can be hit in yields fewer
+/// (possibly no) secondary rays.
+pub fn rays<A: Accel>(scene: &Scene, kind: RayKind, n: usize, seed: u64, tracer: &A) -> Result<Vec<Ray>, TraceError> {
+    match kind {
+        RayKind::Primary => Ok(primary(scene, n)),
+        RayKind::Random => Ok(procedural::random_rays(n, scene.bounds(), seed)),
+        RayKind::Secondary => secondary(scene, n, tracer),
+    }
+}
+
+fn secondary<A: Accel>(scene: &Scene, n: usize, tracer: &A) -> Result<Vec<Ray>, TraceError> {
+    let mut want = n;
+    let mut reflected = Vec::new();
+    for _ in 0..4 {
+        let hits: Vec<Option<Ray>> = primary(scene, want)
+            .par_iter()
+            .map(|ray| Ok(tracer.intersect(ray)?.map(|hit| reflect(ray, hit.t, hit.ng))))
+            .collect::<Result<_, TraceError>>()?;
+        reflected = hits.into_iter().flatten().collect();
+        if reflected.len() >= n || reflected.is_empty() {
+            break;
+        }
+        // Too few hits: a bigger image, with some margin.
+        want = (want as f64 * (n as f64 / reflected.len() as f64) * 1.05).ceil() as usize + 64;
+    }
+    reflected.truncate(n);
+    Ok(reflected)
+}
+
+/// The mirror reflection of `ray` at its hit `t` on a surface of geometric normal `ng`,
+/// leaving from the hit point offset to the side the ray came from.
+pub fn reflect(ray: &Ray, t: f32, ng: Vec3) -> Ray {
+    let n = ng.normalize_or_zero();
+    let d = ray.dir;
+    let facing = if d.dot(n) < 0.0 { n } else { -n };
+    let dir = d - 2.0 * d.dot(n) * n;
+    Ray::new(offset_ray_origin(ray.at(t), facing), dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pinhole_centre_ray_looks_at_the_target() {
+        let (eye, target) = (Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO);
+        let rays = pinhole_rays(eye, target, Vec3::Y, 40.0, 2, 2);
+        assert_eq!(rays.len(), 4);
+        // The four pixel centres are symmetric about the view axis: ±tan(20°)/2 each way.
+        let h = 0.5 * 20f32.to_radians().tan();
+        let expect = [(-h, h), (h, h), (-h, -h), (h, -h)];
+        for (r, (x, y)) in rays.iter().zip(expect) {
+            let want = Vec3::new(x, y, -1.0).normalize();
+            assert!((r.dir - want).length() < 1e-6, "{} vs {want}", r.dir);
+            assert_eq!(r.org, eye);
+        }
+    }
+
+    #[test]
+    fn pinhole_edge_pixels_span_the_field_of_view() {
+        // 1×H column: the top pixel centre is half a pixel below the top of the fov.
+        let rays = pinhole_rays(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, 1, 100);
+        let top = rays[0].dir;
+        let angle = top.y.atan2(-top.z).to_degrees();
+        let expect = (20f32.to_radians().tan() * (1.0 - 1.0 / 100.0)).atan().to_degrees();
+        assert!((angle - expect).abs() < 1e-4, "{angle} vs {expect}");
+    }
+
+    #[test]
+    fn tiles_cover_every_pixel_once() {
+        let (w, h) = (13, 7);
+        let rays = pinhole_rays(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, w, h);
+        assert_eq!(rays.len(), (w * h) as usize);
+        let mut dirs: Vec<[u32; 3]> = rays.iter().map(|r| r.dir.to_array().map(f32::to_bits)).collect();
+        dirs.sort();
+        dirs.dedup();
+        assert_eq!(dirs.len(), (w * h) as usize);
+        // The first tile is the top-left 4×2 pixels.
+        let all = pinhole_rays(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, w, h);
+        assert!(all[0].dir.x < all[3].dir.x && all[0].dir.y > all[4].dir.y);
+    }
+
+    #[test]
+    fn framing_sees_the_whole_box() {
+        let b = Aabb::new(Vec3::new(-1.0, 2.0, 3.0), Vec3::new(4.0, 3.0, 5.0));
+        let (eye, target, _) = framing(b);
+        assert_eq!(target, b.centroid());
+        let half_fov = 20f32.to_radians();
+        for i in 0..8 {
+            let corner = Vec3::new(
+                if i & 1 == 0 { b.min.x } else { b.max.x },
+                if i & 2 == 0 { b.min.y } else { b.max.y },
+                if i & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            let to = (corner - eye).normalize();
+            assert!(to.angle_between(-Vec3::Z) <= half_fov + 1e-5);
+        }
+        assert_eq!(primary_side(1 << 20), 1024);
+        assert_eq!(primary_side(1_000_000), 1000);
+        assert_eq!(primary_side(10), 8);
+    }
+
+    #[test]
+    fn reflection_mirrors_and_leaves_the_surface() {
+        let ray = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, -1.0, 0.0).normalize());
+        let r = reflect(&ray, 2f32.sqrt(), Vec3::new(0.0, 3.0, 0.0));
+        assert!((r.dir - Vec3::new(1.0, 1.0, 0.0).normalize()).length() < 1e-6);
+        assert!(r.org.y > 0.0 && (r.org.x - 1.0).abs() < 1e-6, "{}", r.org);
+        // From below, the offset goes down.
+        let ray = Ray::new(Vec3::new(0.0, -1.0, 0.0), Vec3::Y);
+        let r = reflect(&ray, 1.0, Vec3::new(0.0, 3.0, 0.0));
+        assert!(r.org.y < 0.0 && r.dir == -Vec3::Y);
+    }
+
+    #[test]
+    fn kinds_parse() {
+        for k in RayKind::ALL {
+            assert_eq!(k.name().parse::<RayKind>(), Ok(k));
+        }
+        assert!("shadow".parse::<RayKind>().unwrap_err().contains("unknown ray kind 'shadow'"));
+    }
+}
