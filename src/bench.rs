@@ -42,7 +42,7 @@ pub struct Config {
 impl Default for Config {
     fn default() -> Self {
         Config {
-            rays: 1 << 20,
+            rays: workload::DEFAULT_RAYS,
             kinds: RayKind::ALL.to_vec(),
             threads: vec![1, 2],
             engines: Engine::ALL.to_vec(),
