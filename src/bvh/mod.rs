@@ -11,7 +11,8 @@
 //!   4-wide SIMD passes with glam's `Vec4`) with a precomputed inverse direction and the near
 //!   slab chosen by the direction's signs; leaves run the watertight triangle test four at a time
 //!   ([`triangle::intersect4`]) and the lecture's sphere quadratic ([`sphere::intersect`], the
-//!   function Embree's callbacks call too).
+//!   function Embree's callbacks call too). The closest triangle hit's `t` is recomputed in
+//!   f64 where the watertight test's own `t` may have lost digits ([`triangle::reported_t`]).
 //!
 //! Planes are unbounded and stay outside the tree: like [`crate::embree::EmbreeAccel`], every
 //! query tests them first with [`plane::closest`] and shortens the ray to the nearest one. Hits
@@ -497,7 +498,8 @@ impl Bvh {
                 let block = &self.blocks[block];
                 let [p0, p1, p2] = block.triangles.get(lane);
                 let (geom_id, prim_id) = (block.geom_ids[lane], block.prim_ids[lane]);
-                Hit { t: hit.t, ng: triangle::normal(p0, p1, p2), u: hit.u, v: hit.v, geom_id, prim_id }
+                let t = triangle::reported_t(ray.org, ray.dir, [p0, p1, p2], hit.t, ray.tnear, ray.tfar);
+                Hit { t, ng: triangle::normal(p0, p1, p2), u: hit.u, v: hit.v, geom_id, prim_id }
             }
             Found::Sphere { index, t } => {
                 // Exactly what Embree's sphere callback reports.
