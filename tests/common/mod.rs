@@ -4,8 +4,6 @@
 
 #![allow(dead_code)] // each test file uses a different subset
 
-pub mod ply_stopgap;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
