@@ -28,7 +28,9 @@ fn render(scene: &Path, backend: &str, dir: &TempDir) -> PathBuf {
 /// ray and its reflections by as little and shading by a relative 10⁻⁶ or so; 10⁻⁴ is far above
 /// that and far below any change a different hit makes (another object, a shadow, a miss).
 fn differ(a: f32, b: f32) -> bool {
-    a != b && !((a - b).abs() <= 1e-4 * a.abs().max(b.abs()) + 1e-6)
+    // Equal values (infinite depths too) never differ; a NaN on either side always does.
+    let close = (a - b).abs() <= 1e-4 * a.abs().max(b.abs()) + 1e-6;
+    a != b && !close
 }
 
 /// Renders `name` with both backends and returns the fractions of pixels that differ in any
