@@ -1,5 +1,6 @@
 //! Cross-checking two backends: trace the same rays through both and account for every
-//! difference.
+//! difference. `strahl crosscheck` prints a [`Report`] per kind of ray and fails on any
+//! unexplained disagreement.
 //!
 //! Embree and the native BVH intersect triangles with different f32 algorithms, so they may
 //! disagree where rounding decides: a ray that passes within a few ulps of a triangle's edge
