@@ -146,7 +146,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         image.max_depth,
         if threads == 1 { "" } else { "s" }
     );
-    println!("  backend: {}, BVH built in {build_seconds:.3} s", args.backend.name());
+    println!("  backend: {}, BVH built in {:.1} ms", args.backend.name(), 1e3 * build_seconds);
     println!("  rays: {}", ray_summary(&rays));
     println!("  time: {render_seconds:.3} s rendering ({:.2} Mrays/s)", mrays_per_second(rays.total(), render_seconds));
     let mut written = args.output.display().to_string();
