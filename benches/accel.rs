@@ -4,7 +4,7 @@
 //! bunny and dragon when the test data is there (`STRAHL_TEST_DATA`).
 //!
 //! `cargo bench --bench accel [FILTER]`; throughput is reported in rays per second. For the
-//! full table (1 and 2 threads, secondary rays, Mrays per CPU-second) see `benches/table.rs`.
+//! full table (1 and 2 threads, secondary rays, Mrays per CPU-second) run `strahl bench SCENE`.
 
 mod scenes;
 

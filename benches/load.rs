@@ -3,17 +3,11 @@
 //! second group, Mtriangles/s. Needs the shared test data (`../shared/data/meshes` or
 //! `$STRAHL_TEST_DATA`); without it the benchmark says so and measures nothing.
 
-use std::path::{Path, PathBuf};
+mod scenes;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use scenes::data_dir;
 use strahl::io::{MeshOptions, load_mesh};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("STRAHL_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/meshes"));
-    dir.is_dir().then_some(dir)
-}
 
 fn load(c: &mut Criterion) {
     let Some(root) = data_dir() else {

@@ -9,6 +9,7 @@
 //! also records Mrays per CPU-second of the whole process: on a machine shared with other
 //! work, time spent waiting for a core inflates the wall clock but not that figure.
 
+use std::collections::HashMap;
 use std::fmt;
 use std::time::Instant;
 
@@ -42,7 +43,7 @@ pub struct Config {
 impl Default for Config {
     fn default() -> Self {
         Config {
-            rays: 1 << 20,
+            rays: workload::DEFAULT_RAYS,
             kinds: RayKind::ALL.to_vec(),
             threads: vec![1, 2],
             engines: Engine::ALL.to_vec(),
@@ -159,14 +160,27 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (out, start.elapsed().as_secs_f64())
 }
 
-/// CPU seconds all threads of this process have run so far (Linux; `None` elsewhere).
-pub fn process_cpu_seconds() -> Option<f64> {
-    let mut ns = 0u64;
+/// The CPU time each thread of this process has run so far, in nanoseconds, by thread id
+/// (Linux's `/proc/self/task/*/schedstat`; `None` elsewhere).
+pub fn thread_cpu_times() -> Option<HashMap<u64, u64>> {
+    let mut times = HashMap::new();
     for task in std::fs::read_dir("/proc/self/task").ok()? {
-        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
-        ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+        let task = task.ok()?;
+        let Some(tid) = task.file_name().to_str().and_then(|t| t.parse().ok()) else { continue };
+        // A thread that ends while we read has no schedstat any more: it ran no further.
+        let Ok(stat) = std::fs::read_to_string(task.path().join("schedstat")) else { continue };
+        times.insert(tid, stat.split_whitespace().next()?.parse().ok()?);
     }
-    Some(ns as f64 * 1e-9)
+    Some(times)
+}
+
+/// CPU seconds the process's threads ran between two [`thread_cpu_times`] snapshots: each
+/// thread alive at the end, from its time at the start (0 if it started since). Threads that
+/// ended in between are left out, so that the sum cannot go down (a pool dropped before the
+/// run winding down its threads during it made the sum over live threads shrink).
+pub fn cpu_seconds_between(before: &HashMap<u64, u64>, after: &HashMap<u64, u64>) -> f64 {
+    let ns: u64 = after.iter().map(|(tid, &t)| t.saturating_sub(before.get(tid).copied().unwrap_or(0))).sum();
+    ns as f64 * 1e-9
 }
 
 /// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
@@ -223,7 +237,7 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
             for _ in 0..config.runs.max(1) {
                 for (e, engine) in config.engines.iter().enumerate() {
                     let hits = &mut hits[e];
-                    let cpu_before = process_cpu_seconds();
+                    let cpu_before = thread_cpu_times();
                     let (result, s) = pool.install(|| {
                         timed(|| match engine {
                             Engine::EmbreeSingle => trace(&embree, rays, hits, false),
@@ -233,8 +247,8 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
                     });
                     result?;
                     runs[e].push(rays.len() as f64 / s / 1e6);
-                    if let (Some(before), Some(after)) = (cpu_before, process_cpu_seconds()) {
-                        cpu_runs[e].push(rays.len() as f64 / (after - before) / 1e6);
+                    if let (Some(before), Some(after)) = (cpu_before, thread_cpu_times()) {
+                        cpu_runs[e].push(rays.len() as f64 / cpu_seconds_between(&before, &after) / 1e6);
                     }
                 }
             }
@@ -378,7 +392,24 @@ mod tests {
             assert!(hits[0] > 0 && hits.iter().all(|&h| h == hits[0]), "{kind}: {hits:?}");
         }
         assert!(report.throughput.iter().all(|t| t.mrays_per_s > 0.0 && t.rays == 4096));
+        assert!(report.throughput.iter().all(|t| t.mrays_per_cpu_s.is_none_or(|m| m > 0.0)));
         let table = report.to_string();
         assert!(table.contains("primary 1t") && table.contains("native time / embree1"), "{table}");
+    }
+}
+
+#[cfg(test)]
+mod cpu_tests {
+    use super::*;
+
+    #[test]
+    fn cpu_time_leaves_out_threads_that_ended() {
+        let before = HashMap::from([(1, 5_000_000_000), (2, 1_000_000_000), (3, 7_000_000_000)]);
+        // Thread 3 ended, thread 4 started.
+        let after = HashMap::from([(1, 5_500_000_000), (2, 1_250_000_000), (4, 250_000_000)]);
+        assert_eq!(cpu_seconds_between(&before, &after), 1.0);
+        if let Some(now) = thread_cpu_times() {
+            assert!(now.values().sum::<u64>() > 0);
+        }
     }
 }

@@ -1,5 +1,6 @@
 //! Cross-checking two backends: trace the same rays through both and account for every
-//! difference.
+//! difference. `strahl crosscheck` prints a [`Report`] per kind of ray and fails on any
+//! unexplained disagreement.
 //!
 //! Embree and the native BVH intersect triangles with different f32 algorithms, so they may
 //! disagree where rounding decides: a ray that passes within a few ulps of a triangle's edge
@@ -98,6 +99,9 @@ pub struct Report {
     /// Hit/miss and different-primitive disagreements the tolerance explains, and the rest.
     pub explained: usize,
     pub unexplained: usize,
+    /// Of the unexplained ones, the hit/miss disagreements (the rest hit other primitives at
+    /// another `t`).
+    pub hit_miss_unexplained: usize,
     /// The largest margin among explained disagreements (units of `ε·M`).
     pub worst_margin: f64,
     /// Among hits on different primitives at the same `t`, the largest distance of the ray
@@ -115,41 +119,69 @@ impl Report {
     pub fn hit_miss(&self) -> usize {
         self.only_a + self.only_b
     }
+
+    /// Hits on other primitives at another `t` that the tolerance does not explain.
+    pub fn other_prim_unexplained(&self) -> usize {
+        self.unexplained - self.hit_miss_unexplained
+    }
+}
+
+/// The tolerance, in words, for reports: see the module docs.
+pub fn tolerance() -> String {
+    format!(
+        "a disagreement is explained when the ray passes within {EDGE_MARGIN} ε·M of an edge (or a sphere's \
+         silhouette) of the primitive hit, ε = 2^-24 and M the largest coordinate involved: there rounding in \
+         either backend's f32 test may decide either way"
+    )
 }
 
 impl fmt::Display for Report {
+    /// One line per count: `label  count  (detail)`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let pct = |n: usize| 100.0 * n as f64 / self.rays.max(1) as f64;
-        writeln!(f, "{} vs {}: {} rays", self.a, self.b, self.rays)?;
-        writeln!(f, "  both hit    {:>10} ({:.2} %)", self.both_hit, pct(self.both_hit))?;
-        writeln!(f, "  both miss   {:>10} ({:.2} %)", self.both_miss, pct(self.both_miss))?;
+        let pct = |n: usize, of: usize| 100.0 * n as f64 / of.max(1) as f64;
+        let (a, b) = (&self.a, &self.b);
+        let split =
+            |unexplained: usize, all: usize| format!("{} explained, {unexplained} unexplained", all - unexplained);
+        writeln!(f, "{a} vs {b}")?;
+        writeln!(f, "  rays                {:>10}", self.rays)?;
+        writeln!(f, "  both hit            {:>10}  ({:.2} %)", self.both_hit, pct(self.both_hit, self.rays))?;
+        writeln!(f, "  both miss           {:>10}  ({:.2} %)", self.both_miss, pct(self.both_miss, self.rays))?;
         writeln!(
             f,
-            "  hit/miss    {:>10} ({} only {}, {} only {})",
+            "  hit/miss            {:>10}  ({} only {a}, {} only {b}; {})",
             self.hit_miss(),
             self.only_a,
-            self.a,
             self.only_b,
-            self.b
+            split(self.hit_miss_unexplained, self.hit_miss())
         )?;
         writeln!(
             f,
-            "  same prim   {:>10} ({:.4} % of both hit)",
+            "  same (geom, prim)   {:>10}  ({:.4} % of both hit)",
             self.same_prim,
-            100.0 * self.same_prim as f64 / self.both_hit.max(1) as f64
+            pct(self.same_prim, self.both_hit)
         )?;
         writeln!(
             f,
-            "  other prim  {:>10} at the same t (within {:.1} ε·M of an edge), {} at another t",
-            self.other_prim_same_t, self.worst_tie_margin, self.other_prim
+            "  other prim, same t  {:>10}  (shared edges, coincident surfaces; farthest {:.1} ε·M from an edge)",
+            self.other_prim_same_t, self.worst_tie_margin
         )?;
         writeln!(
             f,
-            "  explained   {:>10} (within {EDGE_MARGIN} ε·M of an edge; worst {:.1})",
+            "  other prim, other t {:>10}  ({})",
+            self.other_prim,
+            split(self.other_prim_unexplained(), self.other_prim)
+        )?;
+        writeln!(
+            f,
+            "  |dt|/t              median {:.2e}, p99.9 {:.2e}, max {:.2e} (same prim)",
+            self.dt.median, self.dt.p999, self.dt.max
+        )?;
+        writeln!(
+            f,
+            "  explained           {:>10}  (within {EDGE_MARGIN} ε·M of an edge; the farthest {:.1})",
             self.explained, self.worst_margin
         )?;
-        writeln!(f, "  UNEXPLAINED {:>10}", self.unexplained)?;
-        write!(f, "  |dt|/t      median {:.2e}, p99.9 {:.2e}, max {:.2e}", self.dt.median, self.dt.p999, self.dt.max)
+        write!(f, "  unexplained         {:>10}", self.unexplained)
     }
 }
 
@@ -198,6 +230,7 @@ pub fn compare<A: Accel, B: Accel>(scene: &Scene, a: &A, b: &B, rays: &[Ray]) ->
                     report.worst_margin = report.worst_margin.max(d.margin);
                 } else {
                     report.unexplained += 1;
+                    report.hit_miss_unexplained += usize::from(d.a.is_none() || d.b.is_none());
                     if report.unexplained_examples.len() < 10 {
                         report.unexplained_examples.push(d);
                     }

@@ -8,14 +8,16 @@ use std::str::FromStr;
 use rayon::prelude::*;
 
 use crate::accel::{Accel, TraceError};
-use crate::math::{Aabb, Ray, Vec3, offset_ray_origin};
-use crate::scene::{Scene, procedural};
+use crate::camera::Camera;
+use crate::math::{Ray, Vec3, offset_ray_origin};
+use crate::scene::{CameraSpec, Scene, procedural};
 
 /// Which rays to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayKind {
-    /// One ray through each pixel centre of a square pinhole image (vertical fov 40°) that
-    /// frames the scene's bounds, in 4×2-pixel tiles (the order packets like).
+    /// One ray through each pixel centre of a square image of the lecture's pinhole
+    /// [`Camera`] (vertical fov 40°) framing the scene's bounds ([`CameraSpec::framing`]), in
+    /// 4×2-pixel tiles (the order packets like).
     Primary,
     /// Rays from points uniform in 1.5× the scene's bounding box, in uniformly random
     /// directions ([`procedural::random_rays`]).
@@ -54,44 +56,29 @@ impl FromStr for RayKind {
     }
 }
 
+/// Rays of each kind `strahl crosscheck` and `strahl bench` trace unless told otherwise.
+pub const DEFAULT_RAYS: usize = 1_000_000;
+
 /// Vertical field of view of the primary rays, degrees.
 pub const PRIMARY_FOV_DEG: f32 = 40.0;
 
-/// A pinhole camera looking along −z at the centre of `bounds` from far enough away that the
-/// bounding sphere fills the field of view: `(eye, target, up)`.
-pub fn framing(bounds: Aabb) -> (Vec3, Vec3, Vec3) {
-    let target = bounds.centroid();
-    let radius = (0.5 * bounds.extent().length()).max(f32::MIN_POSITIVE);
-    let distance = radius / (0.5 * PRIMARY_FOV_DEG.to_radians()).sin();
-    (target + distance * Vec3::Z, target, Vec3::Y)
+/// The camera of the primary rays: [`CameraSpec::framing`] of the scene's bounds.
+pub fn primary_camera(scene: &Scene) -> CameraSpec {
+    CameraSpec::framing(scene.bounds(), PRIMARY_FOV_DEG)
 }
 
-/// The lecture's pinhole rays for a `width`×`height` image from `eye` towards `target`:
-/// `w = (e − z)/|e − z|`, `u = up × w`, `v = w × u`, image plane at `d = 1` with `t = tan(fov/2)`,
-/// `r = t·aspect`, and through pixel `(x, y)` the direction `s = u_s·u + v_s·v − d·w` with
-/// `u_s = l + (r − l)(x + 0.5)/W`, `v_s = t + (b − t)(y + 0.5)/H`. Rays come in 4×2 tiles
-/// (row-major tiles, row-major pixels within each); edge tiles are clipped.
-pub fn pinhole_rays(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Vec<Ray> {
-    let w = (eye - target).normalize();
-    let u = up.cross(w).normalize();
-    let v = w.cross(u);
-    let d = 1.0;
-    let top = d * (0.5 * fov_deg.to_radians()).tan();
-    let right = top * width as f32 / height as f32;
-    let (l, r, b, t) = (-right, right, -top, top);
-    let ray = |x: u32, y: u32| {
-        let us = l + (r - l) * (x as f32 + 0.5) / width as f32;
-        let vs = t + (b - t) * (y as f32 + 0.5) / height as f32;
-        let s = us * u + vs * v - d * w;
-        Ray::new(eye, s.normalize())
-    };
+/// The rays through the pixel centres of `camera` (the camera `strahl render` uses, so these
+/// are exactly the rays of rendering at one sample per pixel), in 4×2 tiles: row-major
+/// tiles, row-major pixels within each; edge tiles are clipped.
+pub fn camera_rays(camera: &Camera) -> Vec<Ray> {
+    let (width, height) = camera.size();
     let (tw, th) = (4, 2);
     let mut rays = Vec::with_capacity(width as usize * height as usize);
     for ty in (0..height).step_by(th) {
         for tx in (0..width).step_by(tw) {
             for y in ty..(ty + th as u32).min(height) {
                 for x in tx..(tx + tw as u32).min(width) {
-                    rays.push(ray(x, y));
+                    rays.push(camera.centre_ray(x, y));
                 }
             }
         }
@@ -106,10 +93,9 @@ pub fn primary_side(n: usize) -> u32 {
 }
 
 /// Primary rays framing `scene` (see [`RayKind::Primary`]), about `n` of them.
-pub fn primary(scene: &Scene, n: usize) -> Vec<Ray> {
+pub fn primary(scene: &Scene, n: usize) -> Result<Vec<Ray>, TraceError> {
     let side = primary_side(n);
-    let (eye, target, up) = framing(scene.bounds());
-    pinhole_rays(eye, target, up, PRIMARY_FOV_DEG, side, side)
+    Ok(camera_rays(&Camera::new(&primary_camera(scene), side, side)?))
 }
 
 /// Exactly `n` rays of `kind` through `scene`. Secondary rays need the primary rays' hits:
@@ -118,7 +104,7 @@ pub fn primary(scene: &Scene, n: usize) -> Vec<Ray> {
 /// (possibly no) secondary rays.
 pub fn rays<A: Accel>(scene: &Scene, kind: RayKind, n: usize, seed: u64, tracer: &A) -> Result<Vec<Ray>, TraceError> {
     match kind {
-        RayKind::Primary => Ok(primary(scene, n)),
+        RayKind::Primary => primary(scene, n),
         RayKind::Random => Ok(procedural::random_rays(n, scene.bounds(), seed)),
         RayKind::Secondary => secondary(scene, n, tracer),
     }
@@ -128,7 +114,7 @@ fn secondary<A: Accel>(scene: &Scene, n: usize, tracer: &A) -> Result<Vec<Ray>, 
     let mut want = n;
     let mut reflected = Vec::new();
     for _ in 0..4 {
-        let hits: Vec<Option<Ray>> = primary(scene, want)
+        let hits: Vec<Option<Ray>> = primary(scene, want)?
             .par_iter()
             .map(|ray| Ok(tracer.intersect(ray)?.map(|hit| reflect(ray, hit.t, hit.ng))))
             .collect::<Result<_, TraceError>>()?;
@@ -156,11 +142,16 @@ pub fn reflect(ray: &Ray, t: f32, ng: Vec3) -> Ray {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Aabb;
+
+    fn camera(eye: Vec3, target: Vec3, width: u32, height: u32) -> Camera {
+        Camera::new(&CameraSpec { eye, target, up: Vec3::Y, fov_deg: 40.0 }, width, height).unwrap()
+    }
 
     #[test]
-    fn pinhole_centre_ray_looks_at_the_target() {
-        let (eye, target) = (Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO);
-        let rays = pinhole_rays(eye, target, Vec3::Y, 40.0, 2, 2);
+    fn centre_rays_look_at_the_target() {
+        let eye = Vec3::new(0.0, 0.0, 5.0);
+        let rays = camera_rays(&camera(eye, Vec3::ZERO, 2, 2));
         assert_eq!(rays.len(), 4);
         // The four pixel centres are symmetric about the view axis: ±tan(20°)/2 each way.
         let h = 0.5 * 20f32.to_radians().tan();
@@ -173,9 +164,9 @@ mod tests {
     }
 
     #[test]
-    fn pinhole_edge_pixels_span_the_field_of_view() {
+    fn edge_pixels_span_the_field_of_view() {
         // 1×H column: the top pixel centre is half a pixel below the top of the fov.
-        let rays = pinhole_rays(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, 1, 100);
+        let rays = camera_rays(&camera(Vec3::Z, Vec3::ZERO, 1, 100));
         let top = rays[0].dir;
         let angle = top.y.atan2(-top.z).to_degrees();
         let expect = (20f32.to_radians().tan() * (1.0 - 1.0 / 100.0)).atan().to_degrees();
@@ -185,22 +176,26 @@ mod tests {
     #[test]
     fn tiles_cover_every_pixel_once() {
         let (w, h) = (13, 7);
-        let rays = pinhole_rays(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, w, h);
+        let cam = camera(Vec3::Z, Vec3::ZERO, w, h);
+        let rays = camera_rays(&cam);
         assert_eq!(rays.len(), (w * h) as usize);
         let mut dirs: Vec<[u32; 3]> = rays.iter().map(|r| r.dir.to_array().map(f32::to_bits)).collect();
         dirs.sort();
         dirs.dedup();
         assert_eq!(dirs.len(), (w * h) as usize);
-        // The first tile is the top-left 4×2 pixels.
-        let all = pinhole_rays(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, w, h);
-        assert!(all[0].dir.x < all[3].dir.x && all[0].dir.y > all[4].dir.y);
+        // The first tile is the top-left 4×2 pixels, the second starts at pixel (4, 0): each
+        // ray is the camera's own ray of its pixel.
+        assert_eq!(rays[0], cam.centre_ray(0, 0));
+        assert_eq!(rays[3], cam.centre_ray(3, 0));
+        assert_eq!(rays[4], cam.centre_ray(0, 1));
+        assert_eq!(rays[8], cam.centre_ray(4, 0));
     }
 
     #[test]
     fn framing_sees_the_whole_box() {
         let b = Aabb::new(Vec3::new(-1.0, 2.0, 3.0), Vec3::new(4.0, 3.0, 5.0));
-        let (eye, target, _) = framing(b);
-        assert_eq!(target, b.centroid());
+        let spec = CameraSpec::framing(b, PRIMARY_FOV_DEG);
+        assert_eq!((spec.target, spec.up, spec.fov_deg), (b.centroid(), Vec3::Y, PRIMARY_FOV_DEG));
         let half_fov = 20f32.to_radians();
         for i in 0..8 {
             let corner = Vec3::new(
@@ -208,12 +203,26 @@ mod tests {
                 if i & 2 == 0 { b.min.y } else { b.max.y },
                 if i & 4 == 0 { b.min.z } else { b.max.z },
             );
-            let to = (corner - eye).normalize();
+            let to = (corner - spec.eye).normalize();
             assert!(to.angle_between(-Vec3::Z) <= half_fov + 1e-5);
         }
+        // Nothing bounded: the unit cube at the origin.
+        assert_eq!(CameraSpec::framing(Aabb::EMPTY, 40.0).target, Vec3::ZERO);
         assert_eq!(primary_side(1 << 20), 1024);
         assert_eq!(primary_side(1_000_000), 1000);
         assert_eq!(primary_side(10), 8);
+    }
+
+    #[test]
+    fn primary_rays_are_the_render_camera_rays() {
+        let scene = Scene {
+            spheres: vec![crate::geometry::Sphere { center: Vec3::X, radius: 2.0, material: 0 }],
+            ..Default::default()
+        };
+        let rays = primary(&scene, 64).unwrap();
+        let cam = Camera::new(&primary_camera(&scene), 8, 8).unwrap();
+        assert_eq!(rays, camera_rays(&cam));
+        assert_eq!(primary_camera(&scene).target, Vec3::X);
     }
 
     #[test]

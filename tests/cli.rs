@@ -7,8 +7,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::{TempDir, fails, strahl, text, triangle_hit};
-use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+use common::{TempDir, channel, fails, read_exr, strahl, text, triangle_hit};
 use glam::DVec3;
 use strahl::material::Texture;
 use strahl::scene::Scene;
@@ -42,37 +41,6 @@ fn render_small(scene: &Path, dir: &TempDir, threads: &str, w: u32, h: u32) -> (
     ]);
     assert!(out.status.success(), "strahl failed: {}", text(&out.stderr));
     (exr, png, out)
-}
-
-/// Every channel of the EXR at `path`, by name, in file order.
-fn read_exr(path: &Path) -> (usize, usize, Vec<(String, Vec<f32>)>) {
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .unwrap();
-    assert_eq!(image.layer_data.len(), 1);
-    let layer = &image.layer_data[0];
-    let channels = layer
-        .channel_data
-        .list
-        .iter()
-        .map(|c| {
-            let values = match &c.sample_data {
-                FlatSamples::F32(v) => v.clone(),
-                other => panic!("channel {} is not float32: {other:?}", c.name),
-            };
-            (c.name.to_string(), values)
-        })
-        .collect();
-    (layer.size.0, layer.size.1, channels)
-}
-
-fn channel<'a>(channels: &'a [(String, Vec<f32>)], name: &str) -> &'a [f32] {
-    &channels.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no channel {name}")).1
 }
 
 #[test]

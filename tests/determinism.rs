@@ -39,6 +39,23 @@ fn one_and_two_threads_render_bit_identical_films() {
 }
 
 #[test]
+fn the_native_backend_renders_the_same_bytes_on_one_and_two_threads() {
+    // The native BVH is built on the render pool: its tree, and so the film, must not depend
+    // on the thread count either.
+    let scene = whitted_showcase(53, 37, 4);
+    let render = |threads| {
+        pool(threads).install(|| {
+            let bvh = strahl::bvh::Bvh::build(&scene).unwrap();
+            integrator::render(&scene, &bvh, &|_| {}).unwrap()
+        })
+    };
+    let ((one, counts_one), (two, counts_two)) = (render(1), render(2));
+    assert!(common::same_bits(&one, &two), "1 and 2 threads differ");
+    assert_eq!(counts_one, counts_two);
+    assert_eq!(counts_one.primary, 53 * 37 * 4);
+}
+
+#[test]
 fn one_sample_per_pixel_is_exactly_the_pixel_centre_ray() {
     let scene = whitted_showcase(24, 18, 1);
     let accel = common::accel(&scene);

@@ -114,3 +114,25 @@ fn a_missing_scene_is_one_line() {
     let e = fails(&dir, &["info", scene.to_str().unwrap()]);
     assert!(e.starts_with(&format!("error: {}: cannot read the scene: ", scene.display())), "{e}");
 }
+
+#[test]
+fn a_mesh_file_on_its_own_is_a_scene_of_that_mesh() {
+    // As a scene file with one `type = "mesh"` object naming it: the same object line.
+    let mesh = shipped("meshes/blob-coarse.ply");
+    let (lines, stderr) = info(&mesh);
+    assert_eq!(
+        lines[..3],
+        [
+            format!("scene: {}", mesh.display()),
+            format!("object 0: mesh {}, 320 triangles, material blob-coarse.ply/default", mesh.display()),
+            "objects: 1".into(),
+        ]
+    );
+    assert!(lines.contains(&"lights: 0".into()) && lines.contains(&"materials: 1".into()), "{lines:?}");
+    assert_eq!(stderr, "");
+    // A broken mesh file: the loader's one line.
+    let dir = TempDir::new("mesh-file");
+    let bad = dir.write("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n");
+    let e = fails(&dir, &["info", bad.to_str().unwrap()]);
+    assert!(e.starts_with(&format!("error: {}:3: ", bad.display())), "{e}");
+}

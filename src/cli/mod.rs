@@ -1,7 +1,9 @@
-//! The `strahl` command's subcommands, one file each (`render.rs`, `info.rs`; `crosscheck` and
-//! `bench` are added the same way), and what they share: loading the scene, the thread pool and
-//! the Embree device. Errors are `anyhow` with context; `main` prints them as one line.
+//! The `strahl` command's subcommands, one file each (`render.rs`, `info.rs`, `crosscheck.rs`,
+//! `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
+//! Errors are `anyhow` with context; `main` prints them as one line.
 
+mod bench;
+mod crosscheck;
 mod info;
 mod render;
 
@@ -9,6 +11,8 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use strahl::io::MeshFormat;
+use strahl::workload::RayKind;
 
 /// strahl: an offline Whitted-style ray tracer over Intel Embree.
 #[derive(Parser, Debug)]
@@ -24,6 +28,10 @@ enum Command {
     Render(render::RenderArgs),
     /// Load a scene and describe it: objects, counts, bounds, load time.
     Info(info::InfoArgs),
+    /// Trace the same rays through Embree and the native BVH and account for every difference.
+    Crosscheck(crosscheck::CrosscheckArgs),
+    /// Measure BVH build times and Mrays/s of Embree (single rays, packets) and the native BVH.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the parsed command.
@@ -31,16 +39,46 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Info(args) => info::run(args),
+        Command::Crosscheck(args) => crosscheck::run(args),
+        Command::Bench(args) => bench::run(args),
     }
 }
 
-/// Loads the scene file at `path` and prints its warnings on stderr, one `warning: …` line each.
+/// Loads the scene at `path` and prints its warnings on stderr, one `warning: …` line each: a
+/// scene file (TOML), or a mesh file (OBJ, PLY) as a scene of that mesh alone
+/// ([`strahl::scene::from_mesh_file`]), told apart by the file's extension.
 fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
-    let loaded = strahl::scene::load(path)?;
+    let loaded = match MeshFormat::of(path) {
+        Some(_) => strahl::scene::from_mesh_file(path)?,
+        None => strahl::scene::load(path)?,
+    };
     for warning in &loaded.warnings {
         eprintln!("warning: {warning}");
     }
     Ok(loaded)
+}
+
+/// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).
+const MAX_RAYS: u64 = 20_000_000;
+
+/// Which kinds of rays `crosscheck` and `bench` trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum KindArg {
+    Primary,
+    Random,
+    Secondary,
+    All,
+}
+
+impl KindArg {
+    fn kinds(self) -> Vec<RayKind> {
+        match self {
+            KindArg::Primary => vec![RayKind::Primary],
+            KindArg::Random => vec![RayKind::Random],
+            KindArg::Secondary => vec![RayKind::Secondary],
+            KindArg::All => RayKind::ALL.to_vec(),
+        }
+    }
 }
 
 /// The number of threads to use: `requested`, or one per core.
@@ -62,4 +100,13 @@ fn thread_pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
 fn embree_device(threads: usize) -> anyhow::Result<strahl::embree::Device> {
     strahl::embree::Device::with_options(strahl::embree::DeviceOptions { threads: Some(threads) })
         .context("cannot start Embree")
+}
+
+/// Refuses a scene with no meshes or spheres, naming its file: planes are tested outside both
+/// BVHs, so a scene of planes alone gives the backends nothing to differ on or to be timed on.
+fn check_bounded(path: &Path, scene: &strahl::Scene) -> anyhow::Result<()> {
+    if scene.bounds().is_empty() {
+        anyhow::bail!("{}: has no meshes or spheres to trace (planes are tested outside both BVHs)", path.display());
+    }
+    Ok(())
 }

@@ -1,18 +1,27 @@
-//! `strahl render SCENE -o OUT.exr [--png OUT.png]`: loads the scene (its warnings on stderr),
-//! applies the command-line overrides, checks the outputs can be written, builds Embree's BVH,
-//! renders on a pool of `--threads` workers with a progress bar, writes the EXR (and PNG)
-//! atomically and prints a summary: resolution, samples, rays by kind, time, Mrays/s.
+//! `strahl render SCENE -o OUT.exr [--png OUT.png] [--backend embree|native]`: loads the scene
+//! (its warnings on stderr), applies the command-line overrides, checks the outputs can be
+//! written, builds the backend's BVH (Embree's, or the native one), renders on a pool of
+//! `--threads` workers with a progress bar, writes the EXR (and PNG) atomically and prints a
+//! summary: resolution, samples, backend, rays by kind, time, Mrays/s, build time.
+//!
+//! Both backends go through the same [`integrator::render`]; the images differ only where the
+//! backends' hits differ (see `strahl crosscheck`).
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use strahl::Accel;
+use strahl::bvh::Bvh;
 use strahl::embree::{BuildOptions, EmbreeAccel};
+use strahl::film::Film;
 use strahl::integrator::{self, RayCounts};
+use strahl::io::MeshFormat;
 use strahl::io::atomic::directory_of;
+use strahl::scene::Scene;
 use strahl::scene::file::image_problem;
 
 /// Arguments of `strahl render`.
@@ -44,6 +53,18 @@ pub struct RenderArgs {
     /// Exposure of the PNG preview in stops: its radiance is multiplied by 2^EV.
     #[arg(long, value_name = "EV", default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
+    /// What finds the closest hits: Intel Embree, or strahl's own BVH.
+    #[arg(long, value_enum, default_value_t = Backend::Embree)]
+    backend: Backend,
+}
+
+/// The ray-tracing backends `strahl render` can use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// Intel Embree (triangles in its BVH, spheres as user geometry).
+    Embree,
+    /// strahl's pure-Rust BVH (`strahl::bvh`).
+    Native,
 }
 
 /// Refuses outputs that cannot be written, before any time is spent rendering.
@@ -73,6 +94,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !args.exposure.is_finite() {
         bail!("--exposure {} is not a finite number of stops", args.exposure);
     }
+    if MeshFormat::of(&args.scene).is_some() {
+        bail!(
+            "{}: is a mesh file, with no camera or lights to render it by; name it in a scene file \
+             (an object of `type = \"mesh\"`, see docs/scene-format.md)",
+            args.scene.display()
+        );
+    }
 
     let mut scene = super::load_scene(&args.scene)?.scene;
     let image = &mut scene.image;
@@ -87,20 +115,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
     let threads = super::thread_count(args.threads.map(|t| t as usize));
     let pool = super::thread_pool(threads)?;
-    let device = super::embree_device(threads)?;
-    let build_start = Instant::now();
-    let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
-        .with_context(|| format!("{}: cannot build the BVH", args.scene.display()))?;
-    let build_seconds = build_start.elapsed().as_secs_f64();
-
-    let pixels = image.width as u64 * image.height as u64;
-    let bar = progress_bar(pixels);
-    let render_start = Instant::now();
-    let (film, rays) = pool
-        .install(|| integrator::render(&scene, &accel, &|done| bar.inc(done)))
-        .with_context(|| format!("{}: rendering failed", args.scene.display()))?;
-    let render_seconds = render_start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
+    let Rendered { film, rays, build_seconds, render_seconds } = match args.backend {
+        Backend::Embree => {
+            let device = super::embree_device(threads)?;
+            let build_start = Instant::now();
+            let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
+                .with_context(|| format!("{}: cannot build Embree's BVH", args.scene.display()))?;
+            render(&pool, &scene, &accel, build_start, &args.scene)?
+        }
+        Backend::Native => {
+            let build_start = Instant::now();
+            let accel = pool
+                .install(|| Bvh::build(&scene))
+                .with_context(|| format!("{}: cannot build the native BVH", args.scene.display()))?;
+            render(&pool, &scene, &accel, build_start, &args.scene)?
+        }
+    };
 
     strahl::io::exr::write(&film, &args.output, threads)?;
     if let Some(png) = &args.png {
@@ -116,17 +146,53 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         image.max_depth,
         if threads == 1 { "" } else { "s" }
     );
+    println!("  backend: {}, BVH built in {:.1} ms", args.backend.name(), 1e3 * build_seconds);
     println!("  rays: {}", ray_summary(&rays));
-    println!(
-        "  time: {render_seconds:.3} s rendering ({:.2} Mrays/s), {build_seconds:.3} s BVH build",
-        mrays_per_second(rays.total(), render_seconds)
-    );
+    println!("  time: {render_seconds:.3} s rendering ({:.2} Mrays/s)", mrays_per_second(rays.total(), render_seconds));
     let mut written = args.output.display().to_string();
     if let Some(png) = &args.png {
         written += &format!(", {}", png.display());
     }
     println!("  wrote {written}");
     Ok(())
+}
+
+impl Backend {
+    fn name(self) -> &'static str {
+        match self {
+            Backend::Embree => "embree",
+            Backend::Native => "native",
+        }
+    }
+}
+
+/// A rendered image and what it took.
+struct Rendered {
+    film: Film,
+    rays: RayCounts,
+    build_seconds: f64,
+    render_seconds: f64,
+}
+
+/// Renders `scene` with `accel` (whose build began at `build_start`) on `pool`, with a
+/// progress bar.
+fn render<A: Accel>(
+    pool: &rayon::ThreadPool,
+    scene: &Scene,
+    accel: &A,
+    build_start: Instant,
+    path: &Path,
+) -> anyhow::Result<Rendered> {
+    let build_seconds = build_start.elapsed().as_secs_f64();
+    let image = &scene.image;
+    let bar = progress_bar(image.width as u64 * image.height as u64);
+    let render_start = Instant::now();
+    let (film, rays) = pool
+        .install(|| integrator::render(scene, accel, &|done| bar.inc(done)))
+        .with_context(|| format!("{}: rendering failed", path.display()))?;
+    let render_seconds = render_start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    Ok(Rendered { film, rays, build_seconds, render_seconds })
 }
 
 /// A progress bar over `pixels` on stderr, hidden when stderr is not a terminal.

@@ -79,6 +79,10 @@ mod tests {
     fn parallel_and_behind_miss() {
         assert_eq!(intersect(Vec3::ZERO, Vec3::X, &FLOOR, 0.0, f32::INFINITY), None);
         assert_eq!(intersect(Vec3::ZERO, Vec3::Y, &FLOOR, 0.0, f32::INFINITY), None);
+        // Grazing at 10⁻³ rad, one unit above the floor: t = 1 / sin(10⁻³) ≈ 1000.
+        let (s, c) = 1e-3f64.sin_cos();
+        let t = intersect(Vec3::ZERO, Vec3::new(c as f32, -s as f32, 0.0), &FLOOR, 0.0, f32::INFINITY).unwrap();
+        assert!((t as f64 - 1.0 / s).abs() <= 1e-6 / s, "{t}");
         // From below, facing away from the normal, still hits (planes are two-sided).
         assert_eq!(intersect(Vec3::new(0.0, -3.0, 0.0), Vec3::Y, &FLOOR, 0.0, f32::INFINITY), Some(2.0));
     }

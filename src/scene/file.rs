@@ -44,6 +44,9 @@ pub enum SceneError {
     /// A problem with no place in the file.
     #[error("{}: {message}", path.display())]
     Invalid { path: PathBuf, message: String },
+    /// A mesh file loaded as a scene of its own ([`from_mesh_file`]) could not be read.
+    #[error(transparent)]
+    Mesh(#[from] crate::io::MeshError),
 }
 
 /// A loaded scene file: the scene, what the user should be told about it, and what each of its
@@ -63,6 +66,19 @@ pub fn load(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read { path: path.into(), source })?;
     from_toml_str(&text, path)
+}
+
+/// A scene of one mesh file (OBJ or PLY, optionally gzip'd; see [`crate::io::load_mesh`]),
+/// for looking at geometry without writing a scene file (`strahl info`, `crosscheck` and
+/// `bench` take one): what a scene file with one `type = "mesh"` object naming `path` would
+/// load (the file's materials named `FILE/NAME`, its warnings), with a camera framing the mesh
+/// ([`CameraSpec::framing`], the default 40° field of view), the default image settings and no
+/// lights.
+pub fn from_mesh_file(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
+    let path = path.as_ref();
+    let (mut scene, report, summary) = objects::mesh_file_scene(path)?;
+    scene.camera = CameraSpec::framing(scene.bounds(), CameraSpec::default().fov_deg);
+    Ok(Loaded { scene, warnings: report.warnings, objects: vec![summary] })
 }
 
 /// Parses a scene from TOML text; `path` names it in errors and warnings, and relative paths in

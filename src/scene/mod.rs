@@ -2,15 +2,16 @@
 //! meshes, spheres and planes, materials, lights, the camera and the image settings.
 //!
 //! Loading a scene file ([`load`]: TOML, and the OBJ and PLY files it names) produces a
-//! [`Scene`], with the warnings to show and a summary of each object ([`Loaded`]); nothing
-//! downstream knows which file format the geometry came from.
+//! [`Scene`], with the warnings to show and a summary of each object ([`Loaded`]); so does a
+//! lone mesh file ([`from_mesh_file`]). Nothing downstream knows which file format the
+//! geometry came from.
 
 pub mod file;
 pub mod mesh;
 pub mod procedural;
 pub mod transform;
 
-pub use file::{Loaded, ObjectSummary, SceneError, from_toml_str, load};
+pub use file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};
@@ -30,6 +31,19 @@ pub struct CameraSpec {
 impl Default for CameraSpec {
     fn default() -> Self {
         CameraSpec { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0 }
+    }
+}
+
+impl CameraSpec {
+    /// A camera looking along −z (up +y) at the centre of `bounds`, from just far enough away
+    /// that the bounding sphere fills the vertical field of view `fov_deg`. Empty bounds (a
+    /// scene of planes only) are framed as the unit cube at the origin.
+    pub fn framing(bounds: Aabb, fov_deg: f32) -> CameraSpec {
+        let bounds = if bounds.is_empty() { Aabb::new(Vec3::splat(-0.5), Vec3::splat(0.5)) } else { bounds };
+        let target = bounds.centroid();
+        let radius = (0.5 * bounds.extent().length()).max(f32::MIN_POSITIVE);
+        let distance = radius / (0.5 * fov_deg.to_radians()).sin();
+        CameraSpec { eye: target + distance * Vec3::Z, target, up: Vec3::Y, fov_deg }
     }
 }
 

@@ -1,14 +1,14 @@
 //! Helpers shared by the tests: an Embree backend for a scene, a render call, the lecture's
 //! pinhole camera and ray–triangle intersection written out again in f64 as independent
-//! references, the shared mesh data folder, temporary folders, and running the `strahl` binary.
+//! references, the shared mesh data folder, temporary folders, running the `strahl` binary and
+//! reading back the EXR it writes.
 
 #![allow(dead_code)] // each test file uses a different subset
-
-pub mod ply_stopgap;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
 use glam::DVec3;
 use strahl::embree::{BuildOptions, Device, EmbreeAccel};
 use strahl::film::Film;
@@ -137,6 +137,38 @@ impl Drop for TempDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
+}
+
+/// Every channel of the EXR at `path`, by name, in file order.
+pub fn read_exr(path: &Path) -> (usize, usize, Vec<(String, Vec<f32>)>) {
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .unwrap();
+    assert_eq!(image.layer_data.len(), 1);
+    let layer = &image.layer_data[0];
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let values = match &c.sample_data {
+                FlatSamples::F32(v) => v.clone(),
+                other => panic!("channel {} is not float32: {other:?}", c.name),
+            };
+            (c.name.to_string(), values)
+        })
+        .collect();
+    (layer.size.0, layer.size.1, channels)
+}
+
+/// The channel `name` of [`read_exr`]'s list.
+pub fn channel<'a>(channels: &'a [(String, Vec<f32>)], name: &str) -> &'a [f32] {
+    &channels.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no channel {name}")).1
 }
 
 /// Runs the `strahl` binary with `args`.

@@ -15,7 +15,7 @@ use toml::Spanned;
 
 use super::{MAX_RANDOM_SPHERES, Problem, Triple, V3, at, direction, fmt3, is_finite32, number, point, required};
 use crate::geometry::Sphere;
-use crate::io::{MeshOptions, load_mesh};
+use crate::io::{MeshError, MeshOptions, load_mesh};
 use crate::math::{Aabb, Vec3};
 use crate::scene::transform::Transform;
 use crate::scene::{Mesh, Scene, procedural};
@@ -156,6 +156,41 @@ pub struct ObjectSummary {
     pub degenerate_dropped: usize,
 }
 
+impl ObjectSummary {
+    /// What an object of type `kind` added to `scene`: everything past the counts `before`
+    /// (meshes, spheres, planes).
+    fn of(
+        scene: &Scene,
+        before: (usize, usize, usize),
+        name: Option<String>,
+        kind: &'static str,
+        report: &FileReport,
+    ) -> ObjectSummary {
+        let (meshes, spheres, planes) = before;
+        let mut used = BTreeSet::new();
+        for m in &scene.meshes[meshes..] {
+            match &m.triangle_materials {
+                Some(per_triangle) => used.extend(per_triangle.iter().copied()),
+                None => {
+                    used.insert(m.material);
+                }
+            }
+        }
+        used.extend(scene.spheres[spheres..].iter().map(|s| s.material));
+        used.extend(scene.planes[planes..].iter().map(|p| p.material));
+        ObjectSummary {
+            name,
+            kind,
+            file: report.file.clone(),
+            triangles: scene.meshes[meshes..].iter().map(|m| m.indices.len()).sum(),
+            spheres: scene.spheres.len() - spheres,
+            planes: scene.planes.len() - planes,
+            materials: used.into_iter().map(|i| scene.materials[i as usize].name.clone()).collect(),
+            degenerate_dropped: report.degenerate_dropped,
+        }
+    }
+}
+
 impl ObjectFile {
     /// How errors name this object: `object 3 (sphere)` or `object 'ball' (sphere)`.
     pub(super) fn label(&self, index: usize) -> String {
@@ -172,29 +207,10 @@ impl ObjectFile {
         scene: &mut Scene,
         ctx: &ObjectContext,
     ) -> Result<(ObjectSummary, Vec<Problem>), Problem> {
-        let (meshes, spheres, planes) = (scene.meshes.len(), scene.spheres.len(), scene.planes.len());
+        let before = (scene.meshes.len(), scene.spheres.len(), scene.planes.len());
         let report = self.add_geometry(scene, ctx)?;
-        let mut used = BTreeSet::new();
-        for m in &scene.meshes[meshes..] {
-            match &m.triangle_materials {
-                Some(per_triangle) => used.extend(per_triangle.iter().copied()),
-                None => {
-                    used.insert(m.material);
-                }
-            }
-        }
-        used.extend(scene.spheres[spheres..].iter().map(|s| s.material));
-        used.extend(scene.planes[planes..].iter().map(|p| p.material));
-        let summary = ObjectSummary {
-            name: self.name.as_ref().map(|n| n.get_ref().clone()),
-            kind: self.kind.get_ref().name(),
-            file: report.file,
-            triangles: scene.meshes[meshes..].iter().map(|m| m.indices.len()).sum(),
-            spheres: scene.spheres.len() - spheres,
-            planes: scene.planes.len() - planes,
-            materials: used.into_iter().map(|i| scene.materials[i as usize].name.clone()).collect(),
-            degenerate_dropped: report.degenerate_dropped,
-        };
+        let name = self.name.as_ref().map(|n| n.get_ref().clone());
+        let summary = ObjectSummary::of(scene, before, name, self.kind.get_ref().name(), &report);
         let span = self.path.as_ref().map_or_else(|| ctx.span.clone(), |p| p.span());
         Ok((summary, report.warnings.into_iter().map(|w| at(span.clone(), w)).collect()))
     }
@@ -262,7 +278,7 @@ impl ObjectFile {
                     MeshOptions { smooth_normals: self.smooth_normals.as_ref().is_some_and(|s| *s.get_ref()) };
                 let file = ctx.base.join(path.get_ref());
                 let (meshes, report) =
-                    load_mesh_file(&file, &options, material, scene).map_err(|m| at(path.span(), m))?;
+                    load_mesh_file(&file, &options, material, scene).map_err(|e| at(path.span(), e.to_string()))?;
                 for mut mesh in meshes {
                     transform.apply_to_mesh(&mut mesh);
                     scene.meshes.push(mesh);
@@ -368,10 +384,10 @@ impl ObjectFile {
 
 /// What a mesh file reported while loading.
 #[derive(Default)]
-struct FileReport {
+pub(super) struct FileReport {
     file: Option<PathBuf>,
     /// One line each, naming the mesh file (and line).
-    warnings: Vec<String>,
+    pub(super) warnings: Vec<String>,
     degenerate_dropped: usize,
 }
 
@@ -382,15 +398,14 @@ struct FileReport {
 /// used). Otherwise the file's materials are appended to `scene.materials` under the names
 /// `FILE/NAME` (`CornellBox-Original.obj/leftWall`; a scene's own material names cannot
 /// contain `/`, so these never collide with them), and the meshes' material indices, which
-/// index the file's list, are moved past the scene's materials. The error is the mesh
-/// loader's one line, `path:line: problem`.
+/// index the file's list, are moved past the scene's materials.
 fn load_mesh_file(
     path: &Path,
     options: &MeshOptions,
     material: Option<u32>,
     scene: &mut Scene,
-) -> Result<(Vec<Mesh>, FileReport), String> {
-    let loaded = load_mesh(path, options).map_err(|e| e.to_string())?;
+) -> Result<(Vec<Mesh>, FileReport), MeshError> {
+    let loaded = load_mesh(path, options)?;
     let report = FileReport {
         file: Some(path.to_owned()),
         warnings: loaded.warnings,
@@ -413,4 +428,15 @@ fn load_mesh_file(
         }
     }
     Ok((meshes, report))
+}
+
+/// A scene of the one mesh file at `path`, as a scene file with a single `type = "mesh"`
+/// object naming it (no `material`, no transform) would hold it: the file's meshes and
+/// materials, and what the object added. The caller sets the camera, lights and image.
+pub(super) fn mesh_file_scene(path: &Path) -> Result<(Scene, FileReport, ObjectSummary), MeshError> {
+    let mut scene = Scene::default();
+    let (meshes, report) = load_mesh_file(path, &MeshOptions::default(), None, &mut scene)?;
+    scene.meshes = meshes;
+    let summary = ObjectSummary::of(&scene, (0, 0, 0), None, ObjectKind::Mesh.name(), &report);
+    Ok((scene, report, summary))
 }
