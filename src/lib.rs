@@ -1,6 +1,9 @@
 //! strahl: an offline Whitted-style ray tracer that traces through Intel Embree, with a
 //! pure-Rust BVH that renders the same scenes and cross-checks Embree's hits.
 
+// `!(x > 0.0)` is used on purpose where a NaN must count as "not positive".
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod bench;
 pub mod bvh;

@@ -464,7 +464,7 @@ fn bad_input_is_one_line_naming_the_file_and_line() {
         p.iter().for_each(|c| bin.extend(c.to_le_bytes()));
     }
     for _ in 0..1200 {
-        bin.push(3);
+        bin.extend([3u8]);
         [0u32, 1, 2].iter().for_each(|i| bin.extend(i.to_le_bytes()));
     }
     bin.extend([3, 0, 0]);

@@ -88,6 +88,8 @@ impl Default for BuildOptions {
 pub struct SceneBuilder {
     device: Device,
     raw: sys::RTCScene,
+    // Boxed: Embree keeps a raw pointer to each set, which must not move when the Vec grows.
+    #[allow(clippy::vec_box, reason = "Embree holds pointers to the boxed sets")]
     sphere_sets: Vec<Box<SphereSet>>,
     next_id: u32,
     panic_in_callbacks: bool,
@@ -285,6 +287,7 @@ pub struct Scene {
     // Read by the sphere callbacks through Embree's user pointers: dropped after `raw` is
     // released (see `Drop`), never moved (boxed), never mutated.
     #[expect(dead_code, reason = "read by Embree's callbacks through raw user pointers")]
+    #[allow(clippy::vec_box, reason = "Embree holds pointers to the boxed sets")]
     sphere_sets: Vec<Box<SphereSet>>,
     _device: Device,
 }
@@ -332,11 +335,12 @@ fn open_tnear(t: f32) -> f32 {
 
 #[inline]
 fn empty_hit() -> sys::RTCHit {
-    let mut hit = sys::RTCHit::default();
-    hit.geomID = sys::RTC_INVALID_GEOMETRY_ID;
-    hit.primID = sys::RTC_INVALID_GEOMETRY_ID;
-    hit.instID = [sys::RTC_INVALID_GEOMETRY_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize];
-    hit
+    sys::RTCHit {
+        geomID: sys::RTC_INVALID_GEOMETRY_ID,
+        primID: sys::RTC_INVALID_GEOMETRY_ID,
+        instID: [sys::RTC_INVALID_GEOMETRY_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
+        ..Default::default()
+    }
 }
 
 /// Rays per packet query.
