@@ -13,9 +13,9 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 all: build
 
 # Install the Debian packages strahl builds against, if any is missing; Rust itself comes
-# from rustup (Debian bookworm's cargo is older than the 1.85 strahl needs).
+# from rustup (Debian bookworm's cargo is older than the 1.86 strahl needs).
 deps:
-	@command -v $(CARGO) >/dev/null || { echo "strahl needs Rust 1.85 or newer: install it with rustup (https://rustup.rs)" >&2; exit 1; }
+	@command -v $(CARGO) >/dev/null || { echo "strahl needs Rust 1.86 or newer: install it with rustup (https://rustup.rs)" >&2; exit 1; }
 	@missing=""; \
 	for p in $(PACKAGES); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
