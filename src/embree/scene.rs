@@ -71,7 +71,12 @@ pub struct BuildOptions {
     /// `RTC_BUILD_QUALITY_HIGH` (spatial splits: slower build, faster tracing) instead of
     /// the default medium quality.
     pub high_quality: bool,
-    /// `RTC_SCENE_FLAG_ROBUST`: avoid optimisations that reduce arithmetic accuracy.
+    /// `RTC_SCENE_FLAG_ROBUST`: avoid optimisations that reduce arithmetic accuracy. On by
+    /// default: without it Embree 3.13.5 lets rays slip through the shared edges of closed
+    /// meshes (5.5 % of rays aimed through edge midpoints, about 1 ppm of random rays; light
+    /// leaks as speckles), with it none (tests/embree.rs). It costs 10–18 % of Embree's
+    /// single-ray speed (full dragon, 1 thread: 9.6 vs 11.2 Mrays/s primary, 4.0 vs 4.4
+    /// random).
     pub robust: bool,
 }
 
