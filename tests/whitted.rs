@@ -146,16 +146,21 @@ fn a_perfect_mirror_shows_the_background_exactly() {
     assert_eq!(counts, RayCounts { primary: 63, shadow: 0, reflected: 63, refracted: 0 });
 }
 
-/// Glass between the planes `z = 0` and `z = −1`, normals outward, seen head-on through a
-/// one-pixel camera (whose one ray is exactly −z) against a uniform background.
-fn slab_scene(max_depth: u32) -> Scene {
-    let glass = Material {
+/// Clear glass of index 1.5: no diffuse part, everything it does not reflect is refracted.
+fn clear_glass() -> Material {
+    Material {
         name: "glass".into(),
         diffuse: Texture::Constant(Vec3::ZERO),
         transmission: Vec3::ONE,
         ior: 1.5,
         ..Default::default()
-    };
+    }
+}
+
+/// Glass between the planes `z = 0` and `z = −1`, normals outward, seen head-on through a
+/// one-pixel camera (whose one ray is exactly −z) against a uniform background.
+fn slab_scene(max_depth: u32) -> Scene {
+    let glass = clear_glass();
     Scene {
         camera: CameraSpec { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 30.0 },
         image: ImageSpec { width: 1, height: 1, spp: 1, max_depth, background: BACKGROUND, ambient: AMBIENT },
@@ -260,13 +265,7 @@ fn total_internal_reflection_keeps_light_inside() {
     // Looking up at the inside of a glass-to-air interface from within the glass, at 60°
     // from its normal (beyond the 41.8° critical angle of ior 1.5): the refracted ray does
     // not exist, everything is reflected. The camera sits inside a glass half-space y < 0.
-    let glass = Material {
-        name: "glass".into(),
-        diffuse: Texture::Constant(Vec3::ZERO),
-        transmission: Vec3::ONE,
-        ior: 1.5,
-        ..Default::default()
-    };
+    let glass = clear_glass();
     let theta = 60f32.to_radians();
     let s = Scene {
         camera: CameraSpec {
