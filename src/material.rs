@@ -98,6 +98,33 @@ impl Default for Material {
 }
 
 impl Material {
+    /// A Lambertian surface of albedo `rho` and nothing else.
+    pub fn matte(name: &str, rho: Vec3) -> Self {
+        Material { name: name.into(), diffuse: Texture::Constant(rho), ..Default::default() }
+    }
+
+    /// An ideal mirror of the given reflectance, with no diffuse part.
+    pub fn mirror(name: &str, reflectance: Vec3) -> Self {
+        Material {
+            name: name.into(),
+            diffuse: Texture::Constant(Vec3::ZERO),
+            mirror: reflectance,
+            ..Default::default()
+        }
+    }
+
+    /// Clear glass of index of refraction `ior`, with no diffuse part: what it does not
+    /// reflect (Fresnel) it refracts.
+    pub fn clear_glass(name: &str, ior: f32) -> Self {
+        Material {
+            name: name.into(),
+            diffuse: Texture::Constant(Vec3::ZERO),
+            transmission: Vec3::ONE,
+            ior,
+            ..Default::default()
+        }
+    }
+
     /// Whether light passes through the surface (a dielectric).
     #[inline]
     pub fn is_dielectric(&self) -> bool {

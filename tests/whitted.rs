@@ -23,17 +23,13 @@ const BACKGROUND: Vec3 = Vec3::new(0.3, 0.6, 0.9);
 const POINT: Vec3 = Vec3::new(1.0, 3.0, -1.0);
 const INTENSITY: Vec3 = Vec3::new(10.0, 20.0, 30.0);
 
-fn diffuse(rho: Vec3) -> Material {
-    Material { name: "diffuse".into(), diffuse: Texture::Constant(rho), ..Default::default() }
-}
-
 /// A floor `y = 0` of albedo ρ under a point light, seen from above at 9×7 pixels, all of
 /// which see the floor.
 fn floor_scene() -> Scene {
     Scene {
         camera: CameraSpec { eye: Vec3::new(0.0, 2.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 50.0 },
         image: ImageSpec { width: 9, height: 7, spp: 1, max_depth: 8, background: BACKGROUND, ambient: AMBIENT },
-        materials: vec![diffuse(RHO)],
+        materials: vec![Material::matte("diffuse", RHO)],
         lights: vec![Light::Point { position: POINT, intensity: INTENSITY }],
         planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0)],
         ..Default::default()
@@ -131,12 +127,7 @@ fn a_shadowed_point_gets_the_ambient_term_only() {
 #[test]
 fn a_perfect_mirror_shows_the_background_exactly() {
     let mut s = floor_scene();
-    s.materials[0] = Material {
-        name: "mirror".into(),
-        diffuse: Texture::Constant(Vec3::ZERO),
-        mirror: Vec3::ONE,
-        ..Default::default()
-    };
+    s.materials[0] = Material::mirror("mirror", Vec3::ONE);
     let (film, counts) = common::render(&s);
     for (i, px) in film.rgba.iter().enumerate() {
         assert_eq!(px, &[BACKGROUND.x, BACKGROUND.y, BACKGROUND.z, 1.0], "pixel {i}");
@@ -146,21 +137,10 @@ fn a_perfect_mirror_shows_the_background_exactly() {
     assert_eq!(counts, RayCounts { primary: 63, shadow: 0, reflected: 63, refracted: 0 });
 }
 
-/// Clear glass of index 1.5: no diffuse part, everything it does not reflect is refracted.
-fn clear_glass() -> Material {
-    Material {
-        name: "glass".into(),
-        diffuse: Texture::Constant(Vec3::ZERO),
-        transmission: Vec3::ONE,
-        ior: 1.5,
-        ..Default::default()
-    }
-}
-
 /// Glass between the planes `z = 0` and `z = −1`, normals outward, seen head-on through a
 /// one-pixel camera (whose one ray is exactly −z) against a uniform background.
 fn slab_scene(max_depth: u32) -> Scene {
-    let glass = clear_glass();
+    let glass = Material::clear_glass("glass", 1.5);
     Scene {
         camera: CameraSpec { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 30.0 },
         image: ImageSpec { width: 1, height: 1, spp: 1, max_depth, background: BACKGROUND, ambient: AMBIENT },
@@ -265,7 +245,7 @@ fn total_internal_reflection_keeps_light_inside() {
     // Looking up at the inside of a glass-to-air interface from within the glass, at 60°
     // from its normal (beyond the 41.8° critical angle of ior 1.5): the refracted ray does
     // not exist, everything is reflected. The camera sits inside a glass half-space y < 0.
-    let glass = clear_glass();
+    let glass = Material::clear_glass("glass", 1.5);
     let theta = 60f32.to_radians();
     let s = Scene {
         camera: CameraSpec {
@@ -293,12 +273,7 @@ fn facing_perfect_mirrors_bounce_to_the_depth_limit_without_exhausting_the_stack
     // Two parallel perfect mirrors (y = 0 facing up, y = 1 facing down), the eye between them
     // looking straight down: every bounce hits the other mirror with throughput 1, so the
     // ray bounces exactly max_depth times and then sees nothing (the mirrors are black).
-    let mirror = Material {
-        name: "mirror".into(),
-        diffuse: Texture::Constant(Vec3::ZERO),
-        mirror: Vec3::ONE,
-        ..Default::default()
-    };
+    let mirror = Material::mirror("mirror", Vec3::ONE);
     let max_depth = integrator::MAX_DEPTH_LIMIT;
     let s = Scene {
         camera: CameraSpec { eye: Vec3::new(0.0, 0.5, 0.0), target: Vec3::ZERO, up: Vec3::Z, fov_deg: 10.0 },
@@ -329,7 +304,7 @@ fn vertex_colours_and_normals_are_interpolated_barycentrically() {
     let s = Scene {
         camera: CameraSpec { eye: Vec3::new(0.0, 0.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0 },
         image: ImageSpec { width: 32, height: 24, spp: 1, ..Default::default() },
-        materials: vec![diffuse(Vec3::ONE)],
+        materials: vec![Material::matte("diffuse", Vec3::ONE)],
         meshes: vec![Mesh {
             name: "tri".into(),
             positions: corners.to_vec(),

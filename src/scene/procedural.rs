@@ -164,8 +164,6 @@ pub fn random_rays(n: usize, bounds: Aabb, seed: u64) -> Vec<Ray> {
 /// directional light, against a blue background. Every kind of ray the integrator traces
 /// occurs in it.
 pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
-    let matte =
-        |name: &str, rho: Vec3| Material { name: name.into(), diffuse: Texture::Constant(rho), ..Default::default() };
     let materials = vec![
         Material {
             name: "floor".into(),
@@ -178,13 +176,7 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
             mirror: Vec3::splat(0.9),
             ..Default::default()
         },
-        Material {
-            name: "glass".into(),
-            diffuse: Texture::Constant(Vec3::ZERO),
-            transmission: Vec3::ONE,
-            ior: 1.5,
-            ..Default::default()
-        },
+        Material::clear_glass("glass", 1.5),
         Material {
             name: "glossy".into(),
             diffuse: Texture::Constant(Vec3::new(0.1, 0.3, 0.6)),
@@ -192,8 +184,8 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
             shininess: 40.0,
             ..Default::default()
         },
-        matte("green", Vec3::new(0.2, 0.7, 0.2)),
-        matte("white", Vec3::splat(0.75)),
+        Material::matte("green", Vec3::new(0.2, 0.7, 0.2)),
+        Material::matte("white", Vec3::splat(0.75)),
     ];
     let mut ball = icosphere(3);
     ball.name = "glossy icosphere".into();
