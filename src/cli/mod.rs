@@ -5,6 +5,7 @@
 mod bench;
 mod crosscheck;
 mod info;
+mod progress;
 mod render;
 
 use std::path::Path;
