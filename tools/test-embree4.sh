@@ -79,6 +79,9 @@ remove_root() {
 }
 
 mkdir -p "$CACHE" "$TARGET"
+# One run at a time: two would mount over each other in the same root.
+exec 9>"$CACHE/lock"
+flock -n 9 || { say "waiting for another run to release $CACHE/lock"; flock 9; }
 stale=$(mounts_under "$ROOT")
 if [ -n "$stale" ]; then
   say "unmounting what a previous run left mounted in $ROOT"
@@ -178,4 +181,4 @@ if [ "$status" -ne 0 ]; then
   exit "$status"
 fi
 say "the whole suite passed against Embree $embree in $((SECONDS - start)) s"
-echo "Embree 4 suite: $passed passed, $failed failed"
+echo "embree4: $passed passed, $failed failed"
