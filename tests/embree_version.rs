@@ -16,7 +16,12 @@ fn the_linked_library_is_the_expected_major_version() {
     match std::env::var("STRAHL_EXPECT_EMBREE_MAJOR") {
         Ok(expected) => {
             let expected: u32 = expected.trim().parse().expect("STRAHL_EXPECT_EMBREE_MAJOR is a number");
-            assert_eq!(library / 10000, expected, "linked Embree {} but this run must test {expected}", device.version_string());
+            assert_eq!(
+                library / 10000,
+                expected,
+                "linked Embree {} but this run must test {expected}",
+                device.version_string()
+            );
             // The bindings too: Embree >= 4.3 built with instance arrays has a 96-byte RTCRayHit.
             let ray_hit = std::mem::size_of::<strahl::embree::sys::RTCRayHit>();
             if expected == 4 && library >= 40300 {

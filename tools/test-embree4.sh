@@ -103,7 +103,20 @@ unmount_tracked() {
   done
   mounts=()
 }
+# Stops every process whose root directory is $1 (the suite's cargo and tests): their mounts
+# cannot go while they run.
+kill_inside() {
+  local p pids=()
+  for p in /proc/[0-9]*; do
+    [ "$(readlink "$p/root" 2>/dev/null)" = "$1" ] && pids+=("${p#/proc/}")
+  done
+  [ ${#pids[@]} -eq 0 ] && return
+  kill -TERM "${pids[@]}" 2>/dev/null || true
+  sleep 1
+  kill -KILL "${pids[@]}" 2>/dev/null || true
+}
 cleanup() {
+  kill_inside "$ROOT"
   unmount_tracked
   [ -d "$ROOT.partial" ] && [ -z "$(mounts_under "$ROOT.partial")" ] && rm -rf --one-file-system -- "$ROOT.partial"
   true
@@ -167,12 +180,16 @@ mount -o remount,bind,ro "$ROOT$HOME/.rustup" 2>/dev/null || true
 embree=$(chroot "$ROOT" dpkg-query -W -f='${Version}' libembree-dev)
 say "Embree in the root: libembree-dev $embree"
 start=$SECONDS
+# In the background, waited for: bash runs a trap only after the foreground command ends, but
+# `wait` returns at once on a signal, so Ctrl-C or a kill cleans up now, not after the suite.
 set +e
 chroot "$ROOT" /usr/bin/env -i HOME="$HOME" PATH="$HOME/.cargo/bin:/usr/bin:/bin" TERM=dumb \
   RUSTUP_HOME="$HOME/.rustup" CARGO_HOME="$HOME/.cargo" CARGO_TARGET_DIR=/target \
   STRAHL_TEST_DATA=/shared/data/meshes STRAHL_EXPECT_EMBREE_MAJOR=4 \
-  bash -c 'cd /src && cargo test --offline --locked 2>&1' | tee "$TARGET/last-run.log"
-status=${PIPESTATUS[0]}
+  bash -c 'cd /src && cargo test --offline --locked 2>&1' > >(tee "$TARGET/last-run.log") &
+wait $!
+status=$?
+wait 2>/dev/null || true  # let tee finish the log
 set -e
 passed=$(grep -Eo '[0-9]+ passed' "$TARGET/last-run.log" | awk '{ s += $1 } END { print s + 0 }')
 failed=$(grep -Eo '[0-9]+ failed' "$TARGET/last-run.log" | awk '{ s += $1 } END { print s + 0 }')

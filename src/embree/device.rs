@@ -169,7 +169,11 @@ impl Device {
         };
         let (library, headers) = (self.version(), Self::header_version());
         let built = if library == headers { String::new() } else { format!(", headers {}", version_string(headers)) };
-        format!("Embree {}{built} (ISA {isa}: native {}-wide packets)", version_string(library), self.native_packet_width())
+        format!(
+            "Embree {}{built} (ISA {isa}: native {}-wide packets)",
+            version_string(library),
+            self.native_packet_width()
+        )
     }
 
     /// `RTC_VERSION` of the headers the bindings were generated from.
