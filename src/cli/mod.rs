@@ -35,6 +35,16 @@ enum Command {
     Bench(bench::BenchArgs),
 }
 
+/// What `strahl --version` prints: strahl's version, then the Embree library it loaded (version,
+/// headers when they differ, ISA), or why no Embree device could be created.
+pub fn version_report() -> String {
+    let embree = match strahl::embree::Device::new() {
+        Ok(device) => device.describe(),
+        Err(e) => format!("Embree unavailable: {e}"),
+    };
+    format!("strahl {}\n{embree}", env!("CARGO_PKG_VERSION"))
+}
+
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
