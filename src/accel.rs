@@ -60,4 +60,15 @@ pub trait Accel: Sync {
         }
         Ok(())
     }
+
+    /// Any-hit queries for many rays at once; `occluded[i]` answers `rays[i]`. Backends that
+    /// trace packets override this (the shadow rays of neighbouring pixels towards one light
+    /// are as coherent as their primary rays).
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) -> Result<(), TraceError> {
+        assert_eq!(rays.len(), occluded.len(), "occluded_batch: rays and answers differ in length");
+        for (ray, o) in rays.iter().zip(occluded.iter_mut()) {
+            *o = self.occluded(ray)?;
+        }
+        Ok(())
+    }
 }

@@ -1,7 +1,11 @@
-//! Throughput of the backends on one scene: build time, and Mrays/s for Embree single rays
-//! (`rtcIntersect1`), Embree 8-wide packets (`rtcIntersect8` through
-//! [`Accel::intersect_batch`]) and the native BVH, for each ray kind and thread count, on
-//! exactly the same rays.
+//! Throughput of the backends on one scene: build time, and Mrays/s for raw Embree calls (the
+//! yardstick, [`embree::raw_bench`]), strahl's Embree wrapper (single rays and 8-wide packets
+//! through [`Accel`]) and the native BVH, for each ray kind and thread count, on exactly the
+//! same rays. Shadow rays are any-hit queries (`occluded`), the others closest-hit.
+//!
+//! The ratios printed are times relative to raw Embree: `embree x1 / raw x1` = 1.05 means the
+//! wrapper costs 5 %; `native / raw x1` is the native BVH against Embree on the same BVH
+//! flags (ROBUST, as strahl builds it).
 //!
 //! Each figure is the median of a few runs; a run traces every ray once, in chunks spread over
 //! a rayon pool of the given size whose workers flush denormals to zero (as Embree asks).
@@ -17,6 +21,7 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Hit, TraceError};
 use crate::bvh::{self, Bvh};
+use crate::embree::raw_bench::{self, RawQuery, RawRays};
 use crate::embree::{self, BuildOptions, Device, DeviceOptions, EmbreeAccel};
 use crate::math::Ray;
 use crate::scene::Scene;
@@ -53,11 +58,17 @@ impl Default for Config {
     }
 }
 
-/// The tracers compared.
+/// The tracers compared. On shadow rays each makes the any-hit query instead: `rtcOccluded1`,
+/// `rtcOccluded8`, [`Accel::occluded`], [`Accel::occluded_batch`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Engine {
-    /// `EmbreeAccel::intersect`, one `rtcIntersect1` per ray.
+    /// Raw `rtcIntersect1` on prepared rays, no strahl types in the loop
+    /// ([`embree::raw_bench`]): the yardstick of the wrapper's cost.
+    RawSingle,
+    /// `EmbreeAccel::intersect`, one `rtcIntersect1` per ray through strahl's wrapper.
     EmbreeSingle,
+    /// Raw `rtcIntersect8` on consecutive rays.
+    RawPacket,
     /// `EmbreeAccel::intersect_batch`, `rtcIntersect8` on consecutive rays.
     EmbreePacket,
     /// `Bvh::intersect`, one ray at a time.
@@ -65,12 +76,15 @@ pub enum Engine {
 }
 
 impl Engine {
-    pub const ALL: [Engine; 3] = [Engine::EmbreeSingle, Engine::EmbreePacket, Engine::Native];
+    pub const ALL: [Engine; 5] =
+        [Engine::RawSingle, Engine::EmbreeSingle, Engine::RawPacket, Engine::EmbreePacket, Engine::Native];
 
     pub fn name(self) -> &'static str {
         match self {
-            Engine::EmbreeSingle => "embree rtcIntersect1",
-            Engine::EmbreePacket => "embree rtcIntersect8",
+            Engine::RawSingle => "raw embree x1",
+            Engine::EmbreeSingle => "embree x1 (strahl)",
+            Engine::RawPacket => "raw embree x8",
+            Engine::EmbreePacket => "embree x8 (strahl)",
             Engine::Native => "native",
         }
     }
@@ -79,13 +93,15 @@ impl Engine {
 impl std::str::FromStr for Engine {
     type Err = String;
 
-    /// `embree1`, `embree8` or `native`.
+    /// `raw1`, `embree1`, `raw8`, `embree8` or `native`.
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
+            "raw1" => Ok(Engine::RawSingle),
             "embree1" => Ok(Engine::EmbreeSingle),
+            "raw8" => Ok(Engine::RawPacket),
             "embree8" => Ok(Engine::EmbreePacket),
             "native" => Ok(Engine::Native),
-            _ => Err(format!("unknown engine '{s}' (expected embree1, embree8 or native)")),
+            _ => Err(format!("unknown engine '{s}' (expected raw1, embree1, raw8, embree8 or native)")),
         }
     }
 }
@@ -183,6 +199,26 @@ pub fn cpu_seconds_between(before: &HashMap<u64, u64>, after: &HashMap<u64, u64>
     ns as f64 * 1e-9
 }
 
+/// Any-hit queries for every ray once on the current pool: `found[i]` says whether `rays[i]` is
+/// blocked; `packets` uses `occluded_batch` per chunk.
+pub fn trace_occluded<A: Accel>(accel: &A, rays: &[Ray], found: &mut [bool], packets: bool) -> Result<(), TraceError> {
+    rays.par_chunks(CHUNK).zip(found.par_chunks_mut(CHUNK)).try_for_each(|(rays, found)| {
+        if packets {
+            return accel.occluded_batch(rays, found);
+        }
+        for (ray, found) in rays.iter().zip(found.iter_mut()) {
+            *found = accel.occluded(ray)?;
+        }
+        Ok(())
+    })
+}
+
+/// Raw Embree queries ([`embree::raw_bench`]) for every ray once on the current pool.
+pub fn trace_raw(scene: &embree::Scene, query: RawQuery, rays: &RawRays, found: &mut [u8]) -> Result<(), embree::Error> {
+    let chunks: Vec<_> = rays.chunks(CHUNK).collect();
+    chunks.into_par_iter().zip(found.par_chunks_mut(CHUNK)).try_for_each(|(rays, found)| raw_bench::trace(scene, query, rays, found))
+}
+
 /// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
 pub fn trace<A: Accel>(accel: &A, rays: &[Ray], hits: &mut [Option<Hit>], packets: bool) -> Result<(), TraceError> {
     rays.par_chunks(CHUNK).zip(hits.par_chunks_mut(CHUNK)).try_for_each(|(rays, hits)| {
@@ -229,20 +265,43 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
             }
         }
         for (kind, rays) in &ray_sets {
+            let shadow = *kind == RayKind::Shadow;
+            let raw_rays = RawRays::new(rays);
+            let (raw1, raw8) = if shadow {
+                (RawQuery::Occluded1, RawQuery::Occluded8)
+            } else {
+                (RawQuery::Intersect1, RawQuery::Intersect8)
+            };
             // Runs interleave the engines (A B C A B C ...), so that a change in the machine's
             // load hits all of them alike.
-            let mut hits = vec![vec![None; rays.len()]; Engine::ALL.len()];
-            let mut runs = vec![Vec::new(); Engine::ALL.len()];
-            let mut cpu_runs = vec![Vec::new(); Engine::ALL.len()];
+            let n = config.engines.len();
+            let mut hits = vec![Vec::new(); n];
+            let mut found = vec![Vec::new(); n];
+            let mut raw_found = vec![Vec::new(); n];
+            let mut runs = vec![Vec::new(); n];
+            let mut cpu_runs = vec![Vec::new(); n];
             for _ in 0..config.runs.max(1) {
                 for (e, engine) in config.engines.iter().enumerate() {
-                    let hits = &mut hits[e];
+                    let (hits, found, raw_found) = (&mut hits[e], &mut found[e], &mut raw_found[e]);
+                    match engine {
+                        Engine::RawSingle | Engine::RawPacket => raw_found.resize(rays.len(), 0u8),
+                        _ if shadow => found.resize(rays.len(), false),
+                        _ => hits.resize(rays.len(), None),
+                    }
                     let cpu_before = thread_cpu_times();
                     let (result, s) = pool.install(|| {
-                        timed(|| match engine {
-                            Engine::EmbreeSingle => trace(&embree, rays, hits, false),
-                            Engine::EmbreePacket => trace(&embree, rays, hits, true),
-                            Engine::Native => trace(&native, rays, hits, false),
+                        timed(|| -> Result<(), Error> {
+                            match (engine, shadow) {
+                                (Engine::RawSingle, _) => trace_raw(embree.embree_scene(), raw1, &raw_rays, raw_found)?,
+                                (Engine::RawPacket, _) => trace_raw(embree.embree_scene(), raw8, &raw_rays, raw_found)?,
+                                (Engine::EmbreeSingle, false) => trace(&embree, rays, hits, false)?,
+                                (Engine::EmbreePacket, false) => trace(&embree, rays, hits, true)?,
+                                (Engine::Native, false) => trace(&native, rays, hits, false)?,
+                                (Engine::EmbreeSingle, true) => trace_occluded(&embree, rays, found, false)?,
+                                (Engine::EmbreePacket, true) => trace_occluded(&embree, rays, found, true)?,
+                                (Engine::Native, true) => trace_occluded(&native, rays, found, false)?,
+                            }
+                            Ok(())
                         })
                     });
                     result?;
@@ -253,12 +312,15 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
                 }
             }
             for (e, &engine) in config.engines.iter().enumerate() {
+                let hit_count = hits[e].iter().filter(|h| h.is_some()).count()
+                    + found[e].iter().filter(|&&f| f).count()
+                    + raw_found[e].iter().filter(|&&f| f != 0).count();
                 report.throughput.push(Throughput {
                     kind: *kind,
                     threads,
                     engine,
                     rays: rays.len(),
-                    hits: hits[e].iter().filter(|h| h.is_some()).count(),
+                    hits: hit_count,
                     mrays_per_s: median(runs[e].clone()),
                     runs: std::mem::take(&mut runs[e]),
                     mrays_per_cpu_s: (!cpu_runs[e].is_empty()).then(|| median(std::mem::take(&mut cpu_runs[e]))),
@@ -328,19 +390,30 @@ impl fmt::Display for Report {
             }
             writeln!(f)?;
         }
-        let ratio = |f: &mut fmt::Formatter<'_>, get: fn(&Throughput) -> Option<f64>| -> fmt::Result {
+        // Time of `a` over time of `b` (1.00 = as fast, 1.05 = 5 % slower).
+        let ratio = |f: &mut fmt::Formatter<'_>, a: Engine, b: Engine, get: fn(&Throughput) -> Option<f64>| -> fmt::Result {
             for &(kind, threads) in &columns {
-                let n = self.get(kind, threads, Engine::Native).and_then(get);
-                let e = self.get(kind, threads, Engine::EmbreeSingle).and_then(get);
-                match (n, e) {
-                    (Some(n), Some(e)) => write!(f, "{:>14.2}", e / n)?,
+                let x = self.get(kind, threads, a).and_then(get);
+                let y = self.get(kind, threads, b).and_then(get);
+                match (x, y) {
+                    (Some(x), Some(y)) => write!(f, "{:>14.3}", y / x)?,
                     _ => write!(f, "{:>14}", "-")?,
                 }
             }
             writeln!(f)
         };
-        write!(f, "{:<24}", "native time / embree1")?;
-        ratio(f, |t| Some(t.mrays_per_s))?;
+        const RATIOS: [(&str, Engine, Engine); 4] = [
+            ("embree x1 / raw x1", Engine::EmbreeSingle, Engine::RawSingle),
+            ("embree x8 / raw x8", Engine::EmbreePacket, Engine::RawPacket),
+            ("native / raw x1", Engine::Native, Engine::RawSingle),
+            ("native / embree x1", Engine::Native, Engine::EmbreeSingle),
+        ];
+        let wanted = |a: Engine, b: Engine| engines.contains(&a) && engines.contains(&b);
+        writeln!(f, "time ratios (wall clock)")?;
+        for (name, a, b) in RATIOS.into_iter().filter(|&(_, a, b)| wanted(a, b)) {
+            write!(f, "{name:<24}")?;
+            ratio(f, a, b, |t| Some(t.mrays_per_s))?;
+        }
         if self.throughput.iter().any(|t| t.mrays_per_cpu_s.is_some()) {
             writeln!(f, "Mrays per CPU-second (insensitive to waiting for a core)")?;
             for &engine in &engines {
@@ -353,12 +426,15 @@ impl fmt::Display for Report {
                 }
                 writeln!(f)?;
             }
-            write!(f, "{:<24}", "native CPU / embree1")?;
-            ratio(f, |t| t.mrays_per_cpu_s)?;
+            writeln!(f, "time ratios (CPU time)")?;
+            for (name, a, b) in RATIOS.into_iter().filter(|&(_, a, b)| wanted(a, b)) {
+                write!(f, "{name:<24}")?;
+                ratio(f, a, b, |t| t.mrays_per_cpu_s)?;
+            }
         }
         write!(f, "{:<24}", "hit %")?;
         for &(kind, threads) in &columns {
-            match self.get(kind, threads, Engine::Native) {
+            match engines.first().and_then(|&e| self.get(kind, threads, e)) {
                 Some(n) => write!(f, "{:>14.1}", 100.0 * n.hits as f64 / n.rays.max(1) as f64)?,
                 None => write!(f, "{:>14}", "-")?,
             }
@@ -379,22 +455,22 @@ mod tests {
         let scene = Scene { spheres: procedural::random_spheres(50, b, (0.05, 0.2), 1), ..Default::default() };
         let config = Config {
             rays: 4096,
-            kinds: vec![RayKind::Primary, RayKind::Random],
+            kinds: vec![RayKind::Primary, RayKind::Random, RayKind::Shadow],
             threads: vec![1, 2],
             runs: 1,
             ..Config::default()
         };
         let report = run(&scene, &config).unwrap();
         assert_eq!(report.builds.len(), 2);
-        assert_eq!(report.throughput.len(), 2 * 2 * 3);
-        for kind in [RayKind::Primary, RayKind::Random] {
+        assert_eq!(report.throughput.len(), 3 * 2 * Engine::ALL.len());
+        for kind in [RayKind::Primary, RayKind::Random, RayKind::Shadow] {
             let hits: Vec<usize> = Engine::ALL.iter().map(|&e| report.get(kind, 2, e).unwrap().hits).collect();
             assert!(hits[0] > 0 && hits.iter().all(|&h| h == hits[0]), "{kind}: {hits:?}");
         }
         assert!(report.throughput.iter().all(|t| t.mrays_per_s > 0.0 && t.rays == 4096));
         assert!(report.throughput.iter().all(|t| t.mrays_per_cpu_s.is_none_or(|m| m > 0.0)));
         let table = report.to_string();
-        assert!(table.contains("primary 1t") && table.contains("native time / embree1"), "{table}");
+        assert!(table.contains("primary 1t") && table.contains("embree x1 / raw x1"), "{table}");
     }
 }
 

@@ -1,5 +1,6 @@
 //! The standard ray sets that `crosscheck` and `bench` trace through a scene: coherent primary
-//! rays, incoherent random rays, and secondary (reflected) rays. Deterministic for a given
+//! rays, incoherent random rays, secondary (reflected) rays and shadow rays (from primary hits
+//! to a light, the integrator's any-hit queries). Deterministic for a given
 //! scene, count and seed, so every backend traces exactly the same rays.
 
 use std::fmt;
@@ -9,6 +10,8 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, TraceError};
 use crate::camera::Camera;
+use crate::integrator::SHADOW_TFAR_SCALE;
+use crate::light::Light;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::scene::{CameraSpec, Scene, procedural};
 
@@ -25,16 +28,21 @@ pub enum RayKind {
     /// The mirror reflections of primary rays at their hits, leaving from the hit point moved
     /// off the surface with [`offset_ray_origin`].
     Secondary,
+    /// Segments from primary hits (moved off the surface to the side the ray came from)
+    /// towards the scene's first light ([`shadow_light`]), ending just short of a point light
+    /// as the integrator's do; traced as any-hit (`occluded`) queries by `bench`.
+    Shadow,
 }
 
 impl RayKind {
-    pub const ALL: [RayKind; 3] = [RayKind::Primary, RayKind::Random, RayKind::Secondary];
+    pub const ALL: [RayKind; 4] = [RayKind::Primary, RayKind::Random, RayKind::Secondary, RayKind::Shadow];
 
     pub fn name(self) -> &'static str {
         match self {
             RayKind::Primary => "primary",
             RayKind::Random => "random",
             RayKind::Secondary => "secondary",
+            RayKind::Shadow => "shadow",
         }
     }
 }
@@ -52,7 +60,7 @@ impl FromStr for RayKind {
         RayKind::ALL
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| format!("unknown ray kind '{s}' (expected primary, random or secondary)"))
+            .ok_or_else(|| format!("unknown ray kind '{s}' (expected primary, random, secondary or shadow)"))
     }
 }
 
@@ -106,17 +114,56 @@ pub fn rays<A: Accel>(scene: &Scene, kind: RayKind, n: usize, seed: u64, tracer:
     match kind {
         RayKind::Primary => primary(scene, n),
         RayKind::Random => Ok(procedural::random_rays(n, scene.bounds(), seed)),
-        RayKind::Secondary => secondary(scene, n, tracer),
+        RayKind::Secondary => from_primary_hits(scene, n, tracer, reflect),
+        RayKind::Shadow => {
+            let light = shadow_light(scene);
+            from_primary_hits(scene, n, tracer, |ray, t, ng| shadow(ray, t, ng, &light))
+        }
     }
 }
 
-fn secondary<A: Accel>(scene: &Scene, n: usize, tracer: &A) -> Result<Vec<Ray>, TraceError> {
+/// The light the shadow rays aim at: the scene's first light, or, in a scene without lights
+/// (a bare mesh), a point light a quarter of the bounding box's diagonal beyond its maximum
+/// corner (above, to the side, like a key light).
+pub fn shadow_light(scene: &Scene) -> Light {
+    scene.lights.first().copied().unwrap_or_else(|| {
+        let b = scene.bounds();
+        let b = if b.min.cmple(b.max).all() { b } else { crate::math::Aabb::new(Vec3::ZERO, Vec3::ONE) };
+        Light::Point { position: b.max + 0.25 * (b.max - b.min), intensity: Vec3::ONE }
+    })
+}
+
+/// The shadow ray from the hit of `ray` at `t` (geometric normal `ng`) towards `light`: from
+/// the hit point moved off the surface to the side the ray came from, ending at
+/// [`SHADOW_TFAR_SCALE`] of a point light's distance (unbounded towards a directional light).
+pub fn shadow(ray: &Ray, t: f32, ng: Vec3, light: &Light) -> Ray {
+    let p = ray.at(t);
+    let n = ng.normalize_or_zero();
+    let origin = offset_ray_origin(p, if ray.dir.dot(n) < 0.0 { n } else { -n });
+    match light.incidence(p) {
+        Some(inc) if inc.distance.is_finite() => {
+            let to = (p + inc.distance * inc.to_light) - origin;
+            let d = to.length();
+            Ray::segment(origin, to / d, 0.0, d * SHADOW_TFAR_SCALE)
+        }
+        Some(inc) => Ray::new(origin, inc.to_light),
+        None => Ray::segment(origin, Vec3::Y, 0.0, 0.0), // at the light: nothing to block
+    }
+}
+
+/// `n` rays made by `make(ray, t, ng)` from the hits of primary rays (traced by `tracer`).
+fn from_primary_hits<A: Accel>(
+    scene: &Scene,
+    n: usize,
+    tracer: &A,
+    make: impl Fn(&Ray, f32, Vec3) -> Ray + Sync,
+) -> Result<Vec<Ray>, TraceError> {
     let mut want = n;
     let mut reflected = Vec::new();
     for _ in 0..4 {
         let hits: Vec<Option<Ray>> = primary(scene, want)?
             .par_iter()
-            .map(|ray| Ok(tracer.intersect(ray)?.map(|hit| reflect(ray, hit.t, hit.ng))))
+            .map(|ray| Ok(tracer.intersect(ray)?.map(|hit| make(ray, hit.t, hit.ng))))
             .collect::<Result<_, TraceError>>()?;
         reflected = hits.into_iter().flatten().collect();
         if reflected.len() >= n || reflected.is_empty() {
@@ -242,6 +289,6 @@ mod tests {
         for k in RayKind::ALL {
             assert_eq!(k.name().parse::<RayKind>(), Ok(k));
         }
-        assert!("shadow".parse::<RayKind>().unwrap_err().contains("unknown ray kind 'shadow'"));
+        assert!("umbra".parse::<RayKind>().unwrap_err().contains("unknown ray kind 'umbra'"));
     }
 }

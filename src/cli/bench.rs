@@ -1,4 +1,4 @@
-//! `strahl bench SCENE [--rays N] [--kind primary|random|secondary|all] [--threads T,...]
+//! `strahl bench SCENE [--rays N] [--kind primary|random|secondary|shadow|all] [--threads T,...]
 //! [--runs R] [--seed S]`: BVH build times and Mrays/s of Embree single rays, Embree 8-wide
 //! packets and the native BVH on the same rays, per kind and thread count
 //! ([`strahl::bench::run`]), printed as a table. SCENE is a scene file, or a mesh file on its
@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Rays of each kind (primary rays: the nearest square image, 1000 × 1000 for a million).
     #[arg(long, value_name = "N", default_value_t = workload::DEFAULT_RAYS as u64, value_parser = clap::value_parser!(u64).range(1..=super::MAX_RAYS))]
     rays: u64,
-    /// Which rays: primary, random, secondary, or all three.
+    /// Which rays: primary, random, secondary, shadow, or all four.
     #[arg(long, value_enum, default_value_t = KindArg::All)]
     kind: KindArg,
     /// The thread counts to measure, comma-separated; each builds and traces on that many.

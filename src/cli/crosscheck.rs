@@ -1,4 +1,4 @@
-//! `strahl crosscheck SCENE [--rays N] [--kind primary|random|secondary|all] [--threads T]
+//! `strahl crosscheck SCENE [--rays N] [--kind primary|random|secondary|shadow|all] [--threads T]
 //! [--seed S]`: traces the same rays through Embree and the native BVH
 //! ([`strahl::crosscheck::run`]) and prints, per kind of ray, how often they agree and how any
 //! disagreement is explained; then fails (exit status 1, one `error:` line) if any is not.

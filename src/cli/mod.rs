@@ -78,6 +78,7 @@ enum KindArg {
     Primary,
     Random,
     Secondary,
+    Shadow,
     All,
 }
 
@@ -87,6 +88,7 @@ impl KindArg {
             KindArg::Primary => vec![RayKind::Primary],
             KindArg::Random => vec![RayKind::Random],
             KindArg::Secondary => vec![RayKind::Secondary],
+            KindArg::Shadow => vec![RayKind::Shadow],
             KindArg::All => RayKind::ALL.to_vec(),
         }
     }

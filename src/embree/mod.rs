@@ -13,6 +13,7 @@
 //! difference inside this module.
 
 mod device;
+pub mod raw_bench;
 mod scene;
 pub mod sys;
 mod user_sphere;
@@ -82,6 +83,11 @@ impl EmbreeAccel {
         })
     }
 
+    /// The Embree scene of the meshes and spheres (without the planes).
+    pub fn embree_scene(&self) -> &Scene {
+        &self.scene
+    }
+
     /// The closest plane hit, and the ray shortened to it.
     #[inline]
     fn clip_to_planes(&self, ray: &Ray) -> (Ray, Option<Hit>) {
@@ -126,6 +132,19 @@ impl Accel for EmbreeAccel {
                     *hit = plane_hit;
                 }
             }
+        }
+        Ok(())
+    }
+
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) -> Result<(), TraceError> {
+        assert_eq!(rays.len(), occluded.len(), "occluded_batch: rays and answers differ in length");
+        let mut by_plane = [false; PACKET_WIDTH];
+        for (rays, occluded) in rays.chunks(PACKET_WIDTH).zip(occluded.chunks_mut(PACKET_WIDTH)) {
+            let n = rays.len();
+            for (ray, b) in rays.iter().zip(&mut by_plane) {
+                *b = plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).is_some();
+            }
+            self.scene.occluded8(rays, &by_plane[..n], occluded)?;
         }
         Ok(())
     }

@@ -26,7 +26,8 @@ pub(crate) struct QueryContext {
 }
 
 impl QueryContext {
-    fn new(coherent: bool) -> Self {
+    #[inline]
+    pub(super) fn new(coherent: bool) -> Self {
         #[cfg(embree3)]
         let raw = sys::init_intersect_context(if coherent {
             sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
@@ -56,7 +57,8 @@ impl QueryContext {
     }
 
     /// The query's outcome: a panic caught in a callback, or an error Embree reported.
-    fn finish(self, call: &'static str) -> Result<(), Error> {
+    #[inline]
+    pub(super) fn finish(self, call: &'static str) -> Result<(), Error> {
         if let Some(message) = self.panic.take() {
             let _ = take_error(call); // the panic is the cause; drop any follow-on error
             return Err(Error::CallbackPanic(message));
@@ -315,7 +317,7 @@ impl Drop for Scene {
 /// Embree's ray for a strahl ray. Embree accepts hits with `t ≥ tnear`; strahl's interval is
 /// open (`t > tnear`, the lecture's `t > 0`), so tnear moves up by one ulp.
 #[inline]
-fn rtc_ray(r: &Ray) -> sys::RTCRay {
+pub(super) fn rtc_ray(r: &Ray) -> sys::RTCRay {
     sys::RTCRay {
         org_x: r.org.x,
         org_y: r.org.y,
@@ -333,7 +335,7 @@ fn rtc_ray(r: &Ray) -> sys::RTCRay {
 }
 
 #[inline]
-fn open_tnear(t: f32) -> f32 {
+pub(super) fn open_tnear(t: f32) -> f32 {
     // The smallest *normal* float above 0: under flush-to-zero a subnormal would read as 0.
     if t == 0.0 { f32::MIN_POSITIVE } else { t.next_up() }
 }
@@ -352,9 +354,14 @@ fn empty_hit() -> sys::RTCHit {
 pub const PACKET_WIDTH: usize = 8;
 
 #[repr(C, align(32))]
-struct Valid8([i32; 8]);
+pub(super) struct Valid8(pub(super) [i32; PACKET_WIDTH]);
 
 impl Scene {
+    /// Embree's handle, for the raw benchmark loops.
+    pub(super) fn raw(&self) -> sys::RTCScene {
+        self.raw
+    }
+
     /// The closest hit of `ray` in `(tnear, tfar)` (`rtcIntersect1`).
     pub fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, Error> {
         let mut rayhit = sys::RTCRayHit { ray: rtc_ray(ray), hit: empty_hit() };
@@ -444,6 +451,55 @@ impl Scene {
                 geom_id: h.geomID[lane],
                 prim_id: h.primID[lane],
             });
+        }
+        Ok(())
+    }
+}
+
+impl Scene {
+    /// Any-hit queries for up to [`PACKET_WIDTH`] rays in one `rtcOccluded8`, lanes whose
+    /// `skip` is set left out; `occluded[i]` answers `rays[i]` (`true` for skipped lanes).
+    pub fn occluded8(&self, rays: &[Ray], skip: &[bool], occluded: &mut [bool]) -> Result<(), Error> {
+        let n = rays.len();
+        if n > PACKET_WIDTH || occluded.len() != n || skip.len() != n {
+            return Err(Error::InvalidInput {
+                object: "ray packet".into(),
+                problem: format!("{n} rays and {} answers for a packet of {PACKET_WIDTH}", occluded.len()),
+            });
+        }
+        let mut valid = Valid8([0; PACKET_WIDTH]);
+        let mut packet = sys::RTCRay8::default();
+        for (lane, (r, &skip)) in rays.iter().zip(skip).enumerate() {
+            if skip {
+                continue;
+            }
+            valid.0[lane] = -1;
+            let p = &mut packet;
+            (p.org_x[lane], p.org_y[lane], p.org_z[lane]) = (r.org.x, r.org.y, r.org.z);
+            (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
+            (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
+            p.mask[lane] = u32::MAX;
+        }
+        if valid.0 == [0; PACKET_WIDTH] {
+            occluded.fill(true);
+            return Ok(());
+        }
+        let mut ctx = QueryContext::new(true);
+        let ctx_ptr: *mut QueryContext = &mut ctx;
+        // SAFETY: `valid` and `packet` are 32-byte aligned as rtcOccluded8 requires, fully
+        // initialised; inactive lanes are marked 0 in `valid`; the context is as in `intersect`.
+        unsafe {
+            #[cfg(embree3)]
+            sys::rtcOccluded8(valid.0.as_ptr(), self.raw, ctx_ptr.cast(), &mut packet);
+            #[cfg(embree4)]
+            {
+                let mut args = sys::init_occluded_arguments(sys::RTC_RAY_QUERY_FLAG_COHERENT, ctx_ptr.cast());
+                sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut packet, &mut args);
+            }
+        }
+        ctx.finish("rtcOccluded8")?;
+        for (lane, (o, &skip)) in occluded.iter_mut().zip(skip).enumerate() {
+            *o = skip || packet.tfar[lane] == f32::NEG_INFINITY;
         }
         Ok(())
     }
