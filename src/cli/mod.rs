@@ -1,10 +1,11 @@
-//! The `strahl` command's subcommands, one file each (`render.rs`, `info.rs`, `crosscheck.rs`,
-//! `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
+//! The `strahl` command's subcommands, one file each (`render.rs`, `merge.rs`, `info.rs`,
+//! `crosscheck.rs`, `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
 //! Errors are `anyhow` with context; `main` prints them as one line.
 
 mod bench;
 mod crosscheck;
 mod info;
+mod merge;
 mod progress;
 mod render;
 
@@ -27,6 +28,8 @@ pub struct Cli {
 enum Command {
     /// Render a scene file to OpenEXR (and optionally a PNG preview).
     Render(render::RenderArgs),
+    /// Join the EXRs of regions of one render (`render --region`/`--tile`) into the whole image.
+    Merge(merge::MergeArgs),
     /// Load a scene and describe it: objects, counts, bounds, load time.
     Info(info::InfoArgs),
     /// Trace the same rays through Embree and the native BVH and account for every difference.
@@ -49,6 +52,7 @@ pub fn version_report() -> String {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
+        Command::Merge(args) => merge::run(args),
         Command::Info(args) => info::run(args),
         Command::Crosscheck(args) => crosscheck::run(args),
         Command::Bench(args) => bench::run(args),

@@ -1,6 +1,8 @@
-//! `strahl render SCENE -o OUT.exr [--png OUT.png] [--backend embree|native]`: loads the scene
+//! `strahl render SCENE -o OUT.exr [--png OUT.png] [--backend embree|native]
+//! [--region X0,Y0,X1,Y1 | --tile I/N]`: loads the scene
 //! (its warnings on stderr), applies the command-line overrides, checks the outputs can be
-//! written, builds the backend's BVH (Embree's, or the native one), renders on a pool of
+//! written, picks the pixels to render (the whole image, a region, or a farm tile:
+//! [`strahl::region`]), builds the backend's BVH (Embree's, or the native one), renders on a pool of
 //! `--threads` workers with a progress bar, writes the EXR (and PNG) atomically and prints a
 //! summary: resolution, samples, backend, rays by kind, time, Mrays/s, build time.
 //!
@@ -24,6 +26,7 @@ use strahl::io::atomic::directory_of;
 use strahl::io::exr::{Compression, ExrOptions, Layout};
 use strahl::io::metadata::RenderInfo;
 use strahl::passes::{MAX_CRYPTO_LEVELS, PassSet};
+use strahl::region::Region;
 use strahl::scene::Scene;
 use strahl::scene::file::image_problem;
 
@@ -81,6 +84,14 @@ pub struct RenderArgs {
     /// EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a.
     #[arg(long, value_name = "C", default_value = "zip", value_parser = parse_compression)]
     compression: Compression,
+    /// Render only the pixels X0 ≤ x < X1, Y0 ≤ y < Y1 (half-open pixel bounds, (0,0) the
+    /// top-left pixel); the EXR's dataWindow is that region inside the whole displayWindow.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
+    region: Option<String>,
+    /// Render only tile I of N, I from 1 to N: N bands of whole rows, top to bottom, for
+    /// splitting a frame over a farm (`strahl merge` joins the tiles).
+    #[arg(long, value_name = "I/N")]
+    tile: Option<String>,
 }
 
 /// `--exr-layout`.
@@ -153,6 +164,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("{}: with the command-line settings: {problem}", args.scene.display());
     }
     let image = scene.image;
+    let region = match (&args.region, &args.tile) {
+        (Some(text), _) => {
+            let r = Region::parse(text).map_err(|m| anyhow::anyhow!("--region {m}"))?;
+            if let Some(problem) = r.problem(image.width, image.height) {
+                bail!("{}: --region {problem}", args.scene.display());
+            }
+            r
+        }
+        (None, Some(text)) => Region::parse_split(text, image.width, image.height)
+            .map_err(|m| anyhow::anyhow!("{}: --tile {m}", args.scene.display()))?,
+        (None, None) => Region::full(image.width, image.height),
+    };
     if let Some(passes) = &args.passes {
         scene.output.passes = PassSet::parse(passes).map_err(|m| anyhow::anyhow!("--passes: {m}"))?;
     }
@@ -167,14 +190,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             let build_start = Instant::now();
             let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
                 .with_context(|| format!("{}: cannot build Embree's BVH", args.scene.display()))?;
-            render(&pool, &scene, &accel, build_start, &args.scene)?
+            render(&pool, &scene, &accel, region, build_start, &args.scene)?
         }
         Backend::Native => {
             let build_start = Instant::now();
             let accel = pool
                 .install(|| Bvh::build(&scene))
                 .with_context(|| format!("{}: cannot build the native BVH", args.scene.display()))?;
-            render(&pool, &scene, &accel, build_start, &args.scene)?
+            render(&pool, &scene, &accel, region, build_start, &args.scene)?
         }
     };
 
@@ -206,8 +229,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let write_seconds = write_start.elapsed().as_secs_f64();
 
+    let part =
+        if region == Region::full(image.width, image.height) { String::new() } else { format!(", region {region}") };
     println!(
-        "{}: {} × {} pixels, {} spp, max depth {}, {threads} thread{}",
+        "{}: {} × {} pixels{part}, {} spp, max depth {}, {threads} thread{}",
         args.scene.display(),
         image.width,
         image.height,
@@ -241,21 +266,21 @@ struct Rendered {
     render_seconds: f64,
 }
 
-/// Renders `scene` with `accel` (whose build began at `build_start`) on `pool`, with a
-/// progress bar.
+/// Renders `region` of `scene` with `accel` (whose build began at `build_start`) on `pool`,
+/// with a progress bar.
 fn render<A: Accel>(
     pool: &rayon::ThreadPool,
     scene: &Scene,
     accel: &A,
+    region: Region,
     build_start: Instant,
     path: &Path,
 ) -> anyhow::Result<Rendered> {
     let build_seconds = build_start.elapsed().as_secs_f64();
-    let image = &scene.image;
-    let bar = Progress::new(image.width as u64 * image.height as u64);
+    let bar = Progress::new(region.pixel_count());
     let render_start = Instant::now();
     let (film, rays) = pool
-        .install(|| integrator::render(scene, accel, &|done| bar.inc(done)))
+        .install(|| integrator::render_region(scene, accel, region, &|done| bar.inc(done)))
         .with_context(|| format!("{}: rendering failed", path.display()))?;
     let render_seconds = render_start.elapsed().as_secs_f64();
     bar.finish();

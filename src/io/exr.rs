@@ -32,6 +32,10 @@
 //! distance to the first hit, it sorts behind every surface in depth compositing, and it
 //! cannot be mistaken for a real distance.
 //!
+//! **Regions.** A film of a [`crate::region::Region`] of the image is written with that region
+//! as the `dataWindow` inside the whole image's `displayWindow`, so compositors place it;
+//! `strahl merge` joins such files through the same writer ([`encode_blocks`]).
+//!
 //! **Streaming.** Blocks of 16 (or 1) lines are cut straight from the film's channels
 //! ([`Film::channels`]), compressed on `threads` threads and written in increasing line order:
 //! no per-channel copy of the frame is made, and the bytes are the same for any number of
@@ -224,6 +228,7 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
             Ok(ChannelDescription::new(text(&c.name, "a channel name")?, sample_type, false))
         })
         .collect::<exr::error::Result<_>>()?;
+    // The data window is the film's region, inside the whole image's display window.
     let size = Vec2(film.width as usize, film.height as usize);
     let mut header = Header::new(text("", "a layer name")?, size, descriptions).with_encoding(
         options.compression.to_exr(),
@@ -231,7 +236,9 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
         LineOrder::Increasing,
     );
     header.own_attributes.layer_name = None;
-    header.shared_attributes.display_window = IntegerBounds::new((0, 0), size);
+    header.own_attributes.layer_position = Vec2(film.origin_x as i32, film.origin_y as i32);
+    let display = Vec2(film.display_width as usize, film.display_height as usize);
+    header.shared_attributes.display_window = IntegerBounds::new((0, 0), display);
     let own = &mut header.own_attributes;
     for (name, value) in &options.attributes {
         // The standard attributes the `exr` crate keeps in fields of its own.
@@ -263,7 +270,8 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
     Ok(header)
 }
 
-/// The uncompressed bytes of the block `index`: line after line, in each line every channel's
+/// The uncompressed bytes of the block `index` (its position relative to the data window, as
+/// the film's pixels are): line after line, in each line every channel's
 /// samples (in the file's channel order), little-endian.
 fn block_bytes(film: &Film, channels: &[Channel], index: BlockIndex) -> Vec<u8> {
     let (x0, w) = (index.pixel_position.0, index.pixel_size.0);
@@ -283,7 +291,8 @@ fn block_bytes(film: &Film, channels: &[Channel], index: BlockIndex) -> Vec<u8> 
     out
 }
 
-/// Encodes `film` into `out`, compressing on `threads` threads.
+/// Encodes `film` into `out`, compressing on `threads` threads. The header's attributes are
+/// in the `exr` crate's order; [`encode`] sorts them.
 pub fn encode_to<W: Write + Seek>(
     film: &Film,
     options: &ExrOptions,
@@ -292,8 +301,20 @@ pub fn encode_to<W: Write + Seek>(
 ) -> std::result::Result<(), exr::error::Error> {
     let channels = file_channels(film, options);
     let header = header(film, &channels, options)?;
+    write_blocks(header, threads, |index| block_bytes(film, &channels, index), out)
+}
+
+/// Writes a single-part scan-line file with `header` whose block `index` holds the
+/// uncompressed bytes `block(index)` (line after line, in each line every channel's samples in
+/// the header's channel order), compressing on `threads` threads, blocks in increasing order.
+fn write_blocks<W: Write + Seek>(
+    header: Header,
+    threads: usize,
+    block: impl FnMut(BlockIndex) -> Vec<u8>,
+    out: W,
+) -> std::result::Result<(), exr::error::Error> {
     exr::block::write(out, exr::prelude::SmallVec::from_vec(vec![header]), true, |meta, chunk_writer| {
-        let blocks = meta.collect_ordered_block_data(|index| block_bytes(film, &channels, index));
+        let blocks = meta.collect_ordered_block_data(block);
         if threads > 1 {
             let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
             if let Some(mut parallel) = ParallelBlocksCompressor::new_with_thread_pool(&meta, chunk_writer, pool) {
@@ -313,8 +334,21 @@ pub fn encode_to<W: Write + Seek>(
 
 /// Encodes `film` as an OpenEXR file in memory, compressing on `threads` threads.
 pub fn encode(film: &Film, options: &ExrOptions, threads: usize) -> std::result::Result<Vec<u8>, exr::error::Error> {
+    let channels = file_channels(film, options);
+    let header = header(film, &channels, options)?;
+    encode_blocks(header, threads, |index| block_bytes(film, &channels, index))
+}
+
+/// The one way strahl makes an EXR file's bytes, a render's and `strahl merge`'s alike: a
+/// single-part scan-line file with `header` and the blocks `block(index)` (see
+/// [`write_blocks`]), its header attributes in name order so that the bytes are reproducible.
+pub fn encode_blocks(
+    header: Header,
+    threads: usize,
+    block: impl FnMut(BlockIndex) -> Vec<u8>,
+) -> std::result::Result<Vec<u8>, exr::error::Error> {
     let mut bytes = Cursor::new(Vec::new());
-    encode_to(film, options, threads, &mut bytes)?;
+    write_blocks(header, threads, block, &mut bytes)?;
     let mut bytes = bytes.into_inner();
     sort_header_attributes(&mut bytes);
     Ok(bytes)
