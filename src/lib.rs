@@ -21,6 +21,7 @@ pub mod optics;
 pub mod sampler;
 pub mod scene;
 pub mod surface;
+pub mod texture;
 pub mod workload;
 
 pub use accel::{Accel, Hit, TraceError};
