@@ -5,6 +5,7 @@ pub mod atomic;
 pub mod exr;
 pub mod gltf;
 pub mod mesh;
+pub mod metadata;
 pub mod obj;
 pub mod ply;
 pub mod png;
