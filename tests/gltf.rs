@@ -340,13 +340,13 @@ fn a_checker_texture_gives_the_analytic_texel_colours() {
     for (x, y, cell) in at {
         let i = pixel_of(x, y);
         let want = linear(CELLS[cell]);
-        for (c, name) in ["albedo.R", "albedo.G", "albedo.B"].iter().enumerate() {
+        for (c, name) in ["ViewLayer.DiffCol.R", "ViewLayer.DiffCol.G", "ViewLayer.DiffCol.B"].iter().enumerate() {
             assert_eq!(channel(&ch, name)[i], want[c], "{name} of cell {cell}");
         }
         // The default light shines along the view: radiance = albedo·cosθ, cosθ = 1 up to
         // the pixel's tiny off-axis angle on this flat quad (the light is directional, so
         // cosθ = 1 exactly).
-        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        for (c, name) in ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B"].iter().enumerate() {
             let got = channel(&ch, name)[i];
             assert!((got - want[c]).abs() <= 1e-6, "{name} of cell {cell}: {got} vs {}", want[c]);
         }
