@@ -153,7 +153,9 @@ impl ImageTexture {
 /// the same file (same canonical path, size and modification time) while another still holds
 /// it gets the same texels, decoded once.
 pub fn open_shared(path: &Path) -> Result<Arc<Image>, String> {
-    static CACHE: Mutex<BTreeMap<(PathBuf, u64, Option<SystemTime>), Weak<Image>>> = Mutex::new(BTreeMap::new());
+    /// A file by canonical path, size in bytes and modification time.
+    type FileKey = (PathBuf, u64, Option<SystemTime>);
+    static CACHE: Mutex<BTreeMap<FileKey, Weak<Image>>> = Mutex::new(BTreeMap::new());
     let meta = std::fs::metadata(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
     let key = (path.canonicalize().unwrap_or_else(|_| path.to_path_buf()), meta.len(), meta.modified().ok());
     let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
