@@ -26,6 +26,7 @@ pub mod region;
 pub mod sampler;
 pub mod scene;
 pub mod surface;
+pub mod texture;
 pub mod workload;
 
 pub use accel::{Accel, Hit, TraceError};
