@@ -142,6 +142,25 @@ impl Film {
         Region { x0: self.origin_x, y0: self.origin_y, x1: self.origin_x + self.width, y1: self.origin_y + self.height }
     }
 
+    /// Every channel's storage as flat floats with the number of floats per pixel, in the
+    /// order of [`Film::channels`] (pass by pass).
+    pub fn buffers(&self) -> Vec<(&[f32], usize)> {
+        let mut out: Vec<(&[f32], usize)> = vec![(self.rgba.as_flattened(), 4)];
+        if !self.depth.is_empty() {
+            out.push((&self.depth, 1));
+        }
+        if !self.normal.is_empty() {
+            out.push((bytemuck::cast_slice(&self.normal), 3));
+        }
+        if !self.albedo.is_empty() {
+            out.push((bytemuck::cast_slice(&self.albedo), 3));
+        }
+        for aov in &self.aovs {
+            out.push((&aov.data, aov.floats_per_pixel));
+        }
+        out
+    }
+
     /// Every channel's storage, mutable, as flat floats with the number of floats per pixel,
     /// in the order of [`Film::channels`] (pass by pass). For copying whole pixels between
     /// films of the same passes (a checkpoint's tiles).

@@ -8,6 +8,7 @@ pub mod accel;
 pub mod bench;
 pub mod bvh;
 pub mod camera;
+pub mod checkpoint;
 pub mod crosscheck;
 pub mod cryptomatte;
 pub mod embree;
