@@ -1,4 +1,5 @@
-# strahl: `make demo` renders every scene in scenes/ to out/, `make test` runs the tests.
+# strahl: `make demo` installs strahl (make install) and renders every scene in scenes/ to out/,
+# `make test` runs the tests.
 # Both install the system packages they need (Debian/Ubuntu) when they are missing.
 
 SHELL := bash
@@ -31,7 +32,13 @@ deps:
 build: deps
 	$(CARGO) build --release --locked
 
-demo: build
+# The release binary, on PATH, so that the README's `strahl …` commands work as written.
+install: build
+	install -d "$(PREFIX)/bin"
+	install -m 755 $(STRAHL) "$(PREFIX)/bin/strahl"
+	@echo "installed $(PREFIX)/bin/strahl"
+
+demo: install
 	@mkdir -p out
 	@for s in $(SCENES); do \
 	  n=$$(basename $$s .toml); \
@@ -46,6 +53,11 @@ test: deps
 # under /var/cache/strahl (needs root; see tools/test-embree4.sh).
 test-embree4:
 	bash tools/test-embree4.sh
+
+# A real one-node Slurm cluster on localhost (installs Debian's Slurm and munge when missing;
+# needs root): an 8-tile `strahl farm slurm` render merged equals a single-process render.
+test-slurm: build
+	STRAHL=$(abspath $(STRAHL)) bash tools/test-slurm.sh
 
 bench: deps
 	$(CARGO) bench --locked

@@ -194,3 +194,53 @@ fn merge_refuses_missing_overlapping_and_foreign_parts() {
     let o = strahl(&["merge", out, &t3, &t1, &t2]);
     assert!(o.status.success(), "{}", text(&o.stderr));
 }
+
+#[test]
+fn farm_slurm_writes_an_array_of_tile_renders_and_a_dependent_merge() {
+    let dir = TempDir::new("slurm-scripts");
+    let out = dir.path("frame.exr");
+    let o = strahl(&[
+        "farm",
+        "slurm",
+        &scene_path("whitted.toml"),
+        "-o",
+        out.to_str().unwrap(),
+        "--tiles",
+        "8",
+        "--partition",
+        "render",
+        "--time",
+        "30:00",
+        "--",
+        "--spp",
+        "16",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let farm = dir.path("frame.exr.farm");
+    let render = std::fs::read_to_string(farm.join("render.sbatch")).unwrap();
+    for line in ["#SBATCH --array=1-8", "#SBATCH --partition=render", "#SBATCH --time=30:00", "#SBATCH --requeue"] {
+        assert!(render.contains(line), "{line} in {render}");
+    }
+    assert!(render.contains("--tile \"$SLURM_ARRAY_TASK_ID\"/8 --resume '--spp' '16'"), "{render}");
+    let merge = std::fs::read_to_string(farm.join("merge.sbatch")).unwrap();
+    assert!(merge.contains(&format!("merge '{}'", out.display())), "{merge}");
+    assert!(merge.contains(&format!("'{}'\n", farm.join("tile-8.exr").display())), "{merge}");
+    assert!(text(&o.stdout).contains("--dependency=afterok:"));
+    // The jobs set these themselves.
+    let e = fails(
+        &dir,
+        &[
+            "farm",
+            "slurm",
+            &scene_path("whitted.toml"),
+            "-o",
+            out.to_str().unwrap(),
+            "--tiles",
+            "2",
+            "--",
+            "--tile",
+            "1/2",
+        ],
+    );
+    assert!(e.contains("must not set"), "{e}");
+}

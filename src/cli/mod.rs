@@ -1,9 +1,10 @@
-//! The `strahl` command's subcommands, one file each (`render.rs`, `merge.rs`, `info.rs`,
+//! The `strahl` command's subcommands, one file each (`render.rs`, `merge.rs`, `farm.rs`, `info.rs`,
 //! `crosscheck.rs`, `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
 //! Errors are `anyhow` with context; `main` prints them as one line.
 
 mod bench;
 mod crosscheck;
+mod farm;
 mod info;
 mod merge;
 mod progress;
@@ -30,6 +31,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Join the EXRs of regions of one render (`render --region`/`--tile`) into the whole image.
     Merge(merge::MergeArgs),
+    /// Split a render over a farm's scheduler: `strahl farm slurm` writes (and submits) a Slurm
+    /// job array of tile renders and a merge job.
+    Farm(farm::FarmArgs),
     /// Load a scene and describe it: objects, counts, bounds, load time.
     Info(info::InfoArgs),
     /// Trace the same rays through Embree and the native BVH and account for every difference.
@@ -53,6 +57,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::Farm(args) => farm::run(args),
         Command::Info(args) => info::run(args),
         Command::Crosscheck(args) => crosscheck::run(args),
         Command::Bench(args) => bench::run(args),

@@ -323,6 +323,8 @@ fn write_blocks<W: Write + Seek>(
     out: W,
 ) -> std::result::Result<(), exr::error::Error> {
     let zip = matches!(header.compression, exr::compression::Compression::ZIP16 | exr::compression::Compression::ZIP1);
+    // A chunk names its first line in image coordinates: the data window's top plus the block's.
+    let data_y0 = header.own_attributes.layer_position.1 as i64;
     exr::block::write(out, exr::prelude::SmallVec::from_vec(vec![header]), true, |meta, chunk_writer| {
         let mut blocks = meta.collect_ordered_block_data(block);
         if zip {
@@ -342,7 +344,7 @@ fn write_blocks<W: Write + Seek>(
                     batch.par_iter().map(|(_, block)| super::exr_zip::compress_block(&block.data)).collect()
                 });
                 for ((index, block), pixels) in batch.into_iter().zip(compressed) {
-                    let y_coordinate = i32::try_from(block.index.pixel_position.1)
+                    let y_coordinate = i32::try_from(data_y0 + block.index.pixel_position.1 as i64)
                         .map_err(|_| exr::error::Error::Invalid("image too tall".into()))?;
                     let compressed_block = CompressedBlock::ScanLine(CompressedScanLineBlock {
                         y_coordinate,
