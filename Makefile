@@ -9,7 +9,11 @@ PACKAGES := libembree-dev libclang-dev gcc libc6-dev
 SCENES := $(wildcard scenes/*.toml)
 STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 
-.PHONY: all deps build demo test test-embree4 bench clean
+# Where `make install` puts bin/strahl: cargo's own bin directory when there is one (rustup puts
+# it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
+PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
+
+.PHONY: all deps build install demo test test-embree4 test-gltf-blender test-slurm bench clean
 
 all: build
 
@@ -58,6 +62,13 @@ test-embree4:
 # needs root): an 8-tile `strahl farm slurm` render merged equals a single-process render.
 test-slurm: build
 	STRAHL=$(abspath $(STRAHL)) bash tools/test-slurm.sh
+
+# glTF files from tools strahl did not write: Blender's own exporter (needs `blender`; its
+# exporter needs numpy) and pygltflib (pip), compared with the same scenes built by hand
+# (tests/gltf_external.rs; `make test` runs them too, skipping loudly without the tools).
+test-gltf-blender: deps
+	@command -v blender >/dev/null || { echo "test-gltf-blender needs Blender: apt-get install blender" >&2; exit 1; }
+	$(CARGO) test --locked --test gltf_external -- --nocapture
 
 bench: deps
 	$(CARGO) bench --locked
