@@ -193,6 +193,15 @@ pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
             return bad(object, problem);
         }
     }
+    if let Some((object, problem)) = scene.instances_problem() {
+        return bad(object, problem);
+    }
+    for (i, mesh) in scene.prototypes.iter().enumerate() {
+        let per_triangle = mesh.triangle_materials.iter().flatten().copied();
+        if let Some(problem) = std::iter::once(mesh.material).chain(per_triangle).find_map(missing) {
+            return bad(format!("prototype {i} '{}'", mesh.name), problem);
+        }
+    }
     for (i, s) in scene.spheres.iter().enumerate() {
         if let Some(problem) = s.problem().or_else(|| missing(s.material)) {
             return bad(format!("sphere {i}"), problem);

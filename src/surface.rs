@@ -73,6 +73,24 @@ impl SurfacePoint {
                 let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), hit.u, hit.v));
                 (p, ng, ns.normalize_or_zero(), colour, uv, mesh.material_of(prim))
             }
+            GeomKind::Instance(k) => {
+                // As a flattened copy: corners and normals transformed one by one, then
+                // interpolated (see `crate::scene::instance`).
+                let inst = &scene.instances[k as usize];
+                let mesh = &scene.prototypes[inst.prototype as usize];
+                let idx = mesh.indices[prim].map(|i| i as usize);
+                let corners = inst.corners(mesh, prim);
+                let p = barycentric(corners, hit.u, hit.v);
+                let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
+                let ng = if inst.transform.flips_orientation() { -ng } else { ng };
+                let ns = mesh
+                    .normals
+                    .as_ref()
+                    .map_or(Vec3::ZERO, |n| barycentric(idx.map(|i| inst.transform.normal(n[i])), hit.u, hit.v));
+                let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), hit.u, hit.v));
+                let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), hit.u, hit.v));
+                (p, ng, ns.normalize_or_zero(), colour, uv, inst.material_of(mesh, prim))
+            }
             GeomKind::Spheres => {
                 let s = &scene.spheres[prim];
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();

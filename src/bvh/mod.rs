@@ -20,6 +20,7 @@
 //! one.
 
 pub mod build;
+pub mod instance;
 pub mod node;
 
 use glam::Vec4;
@@ -102,6 +103,8 @@ pub struct Bvh {
     planes_geom_id: u32,
     /// Whether the tree is shallow enough for the fixed traversal stack.
     shallow: bool,
+    /// The scene's instances: a second level of trees ([`instance`]), if it has any.
+    instances: Option<Box<instance::Instances>>,
 }
 
 /// Four triangles of a leaf and their ids (176 bytes): the ids follow the corners, so
@@ -257,6 +260,7 @@ impl Bvh {
             spheres_geom_id: scene.spheres_geom_id(),
             planes_geom_id: scene.planes_geom_id(),
             shallow: false,
+            instances: instance::Instances::build(scene)?.map(Box::new),
         }
         .with_stack_choice())
     }
@@ -625,14 +629,19 @@ impl Accel for Bvh {
         }
         let plane_hit = self.plane_hit(ray);
         let clipped = Ray { tfar: plane_hit.map_or(ray.tfar, |h| h.t), ..*ray };
-        Ok(self.intersect_tree(&clipped).or(plane_hit))
+        let hit = self.intersect_tree(&clipped).or(plane_hit);
+        let Some(instances) = &self.instances else { return Ok(hit) };
+        let clipped = Ray { tfar: hit.map_or(ray.tfar, |h| h.t), ..*ray };
+        Ok(instances.intersect(&clipped).or(hit))
     }
 
     fn occluded(&self, ray: &Ray) -> Result<bool, TraceError> {
         if !traceable(ray) {
             return Ok(false);
         }
-        Ok(plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).is_some() || self.occluded_tree(ray))
+        Ok(plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).is_some()
+            || self.occluded_tree(ray)
+            || self.instances.as_ref().is_some_and(|i| i.occluded(ray)))
     }
 }
 

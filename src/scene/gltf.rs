@@ -2,7 +2,8 @@
 //! `type = "gltf"` objects of a TOML scene ([`add_gltf`]).
 //!
 //! The file is read by [`crate::io::gltf`]; here its meshes are placed in the world by their
-//! nodes, its materials appended to the scene's under the names `FILE/NAME` (as a mesh file's
+//! nodes (a mesh that several nodes use is stored once, as a prototype with an instance per
+//! node; see [`super::instance`]), its materials appended to the scene's under the names `FILE/NAME` (as a mesh file's
 //! are), its lights added. A lone glTF file also brings its camera (chosen by name or index,
 //! the first by default) and image size (640 pixels wide, the height from the camera's
 //! `aspectRatio`, else 480); without a camera it is framed as a lone mesh file is, and without
@@ -14,7 +15,7 @@ use std::path::Path;
 
 use super::file::{Loaded, ObjectSummary, SceneError};
 use super::transform::Transform;
-use super::{CameraSpec, ImageSpec, Scene};
+use super::{CameraSpec, ImageSpec, Instance, Mesh, Scene};
 use crate::io::gltf::{GltfFile, load_gltf};
 use crate::light::Light;
 use crate::math::Vec3;
@@ -42,8 +43,9 @@ pub fn add_gltf(
         }
     }
     let meshes_before = scene.meshes.len();
-    for node in &file.nodes {
-        let mut mesh = file.meshes[node.mesh].clone();
+    let prototypes_before = scene.prototypes.len();
+    let instances_before = scene.instances.len();
+    let with_materials = |mut mesh: Mesh| {
         match material {
             Some(id) => (mesh.material, mesh.triangle_materials) = (id, None),
             None => {
@@ -51,8 +53,28 @@ pub fn add_gltf(
                 mesh.triangle_materials.iter_mut().flatten().for_each(|t| *t += offset);
             }
         }
-        node.transform.then(transform).apply_to_mesh(&mut mesh);
-        scene.meshes.push(mesh);
+        mesh
+    };
+    // A mesh placed by several nodes is stored once, as a prototype with an instance per node;
+    // one placed once is flattened into world space.
+    let mut uses = vec![0usize; file.meshes.len()];
+    file.nodes.iter().for_each(|n| uses[n.mesh] += 1);
+    let mut prototype_of: Vec<Option<u32>> = vec![None; file.meshes.len()];
+    let file_name = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into());
+    for node in &file.nodes {
+        let world = node.transform.then(transform);
+        if uses[node.mesh] > 1 {
+            let prototype = *prototype_of[node.mesh].get_or_insert_with(|| {
+                scene.prototypes.push(with_materials(file.meshes[node.mesh].clone()));
+                scene.prototypes.len() as u32 - 1
+            });
+            let name = format!("{file_name} node {}", node.node);
+            scene.instances.push(Instance { name, prototype, transform: world, material: None });
+        } else {
+            let mut mesh = with_materials(file.meshes[node.mesh].clone());
+            world.apply_to_mesh(&mut mesh);
+            scene.meshes.push(mesh);
+        }
     }
     for light in &file.lights {
         scene.lights.push(match *light {
@@ -64,7 +86,7 @@ pub fn add_gltf(
         });
     }
     let mut used: Vec<u32> = Vec::new();
-    for m in &scene.meshes[meshes_before..] {
+    for m in scene.meshes[meshes_before..].iter().chain(&scene.prototypes[prototypes_before..]) {
         match &m.triangle_materials {
             Some(t) => used.extend(t),
             None => used.push(m.material),
@@ -76,7 +98,11 @@ pub fn add_gltf(
         name: None,
         kind: "gltf",
         file: Some(path.to_owned()),
-        triangles: scene.meshes[meshes_before..].iter().map(|m| m.indices.len()).sum(),
+        triangles: scene.meshes[meshes_before..].iter().map(|m| m.indices.len()).sum::<usize>()
+            + scene.instances[instances_before..]
+                .iter()
+                .map(|i| scene.prototypes[i.prototype as usize].indices.len())
+                .sum::<usize>(),
         spheres: 0,
         planes: 0,
         materials: used.into_iter().map(|i| scene.materials[i as usize].name.clone()).collect(),
