@@ -8,7 +8,7 @@ PACKAGES := libembree-dev libclang-dev gcc libc6-dev
 SCENES := $(wildcard scenes/*.toml)
 STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 
-.PHONY: all deps build demo test test-embree4 bench clean
+.PHONY: all deps build demo test test-embree4 test-gltf-blender bench clean
 
 all: build
 
@@ -46,6 +46,13 @@ test: deps
 # under /var/cache/strahl (needs root; see tools/test-embree4.sh).
 test-embree4:
 	bash tools/test-embree4.sh
+
+# glTF files from tools strahl did not write: Blender's own exporter (needs `blender`; its
+# exporter needs numpy) and pygltflib (pip), compared with the same scenes built by hand
+# (tests/gltf_external.rs; `make test` runs them too, skipping loudly without the tools).
+test-gltf-blender: deps
+	@command -v blender >/dev/null || { echo "test-gltf-blender needs Blender: apt-get install blender" >&2; exit 1; }
+	$(CARGO) test --locked --test gltf_external -- --nocapture
 
 bench: deps
 	$(CARGO) bench --locked

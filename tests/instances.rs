@@ -18,7 +18,7 @@ use strahl::material::Material;
 use strahl::math::Vec3;
 use strahl::scene::instance::flatten;
 use strahl::scene::transform::Transform;
-use strahl::scene::{CameraSpec, Instance, Scene, procedural};
+use strahl::scene::{CameraSpec, Instance, Scene, from_toml_str, procedural};
 use strahl::workload::RayKind;
 
 /// Five instances of a smooth blob (vertex normals) over a floor, a point light and a sun;
@@ -175,4 +175,92 @@ fn a_gltf_mesh_used_by_several_nodes_is_stored_once() {
     let stdout = common::text(&out.stdout);
     assert!(stdout.contains("instances: 3 of 1 prototypes (1 prototype triangles)\n"), "{stdout}");
     assert!(stdout.contains("unique triangles: 1\ninstanced triangles: 3\n"), "{stdout}");
+}
+
+fn toml_scene(objects: &str) -> String {
+    let blob = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/blob.ply");
+    format!(
+        r#"
+[camera]
+eye = [0, 1, 7]
+target = [0, 0, 0]
+fov_deg = 40
+[image]
+width = 160
+height = 120
+[materials.clay]
+diffuse = [0.7, 0.5, 0.3]
+[materials.red]
+diffuse = [0.8, 0.1, 0.1]
+specular = 0.2
+shininess = 40
+[[lights]]
+type = "point"
+position = [2, 5, 5]
+intensity = 40
+{}
+"#,
+        objects.replace("BLOB", &blob.display().to_string())
+    )
+}
+
+#[test]
+fn toml_instances_place_a_named_object_again_stored_once() {
+    let dir = TempDir::new("toml-instances");
+    let instanced = toml_scene(
+        r#"
+[[objects]]
+type = "mesh"
+name = "blob"
+path = "BLOB"
+material = "clay"
+translate = [-1.5, 0, 0]
+[[objects]]
+type = "instance"
+name = "mirrored blob"
+of = "blob"
+material = "red"
+translate = [1.5, 0, 0]
+rotate_deg = [0, 30, 0]
+scale = [1, -0.8, 1]
+"#,
+    );
+    let flat = toml_scene(
+        r#"
+[[objects]]
+type = "mesh"
+path = "BLOB"
+material = "clay"
+translate = [-1.5, 0, 0]
+[[objects]]
+type = "mesh"
+path = "BLOB"
+material = "red"
+translate = [1.5, 0, 0]
+rotate_deg = [0, 30, 0]
+scale = [1, -0.8, 1]
+"#,
+    );
+    let a = from_toml_str(&instanced, &dir.path("a.toml")).unwrap();
+    let b = from_toml_str(&flat, &dir.path("b.toml")).unwrap().scene;
+    assert_eq!((a.scene.meshes.len(), a.scene.prototypes.len(), a.scene.instances.len()), (0, 1, 2));
+    assert_eq!(a.objects[1].kind, "instance");
+    assert_eq!(a.objects[1].triangles, b.meshes[1].indices.len());
+    assert_eq!(a.objects[1].materials, vec!["red".to_string()]);
+    for (backend, x, y) in
+        [("embree", render(&a.scene).0, render(&b).0), ("native", render_native(&a.scene), render_native(&b))]
+    {
+        for (what, name, tol) in [(0, "Z", 1e-5), (1, "N", 1e-4), (2, "RGB", 1e-4)] {
+            let (count, worst) = differences(&x, &y, tol, what);
+            assert_eq!(count, 0, "{backend}: {name}: {count} pixels differ by more than {tol} (worst {worst:e})");
+        }
+        assert!(x.depth.iter().filter(|z| z.is_finite()).count() > 2000);
+    }
+    // `of` must name an earlier mesh, triangles or glTF object.
+    let bad = toml_scene("[[objects]]\ntype = \"instance\"\nof = \"tree\"\n");
+    let e = from_toml_str(&bad, &dir.path("c.toml")).unwrap_err().to_string();
+    assert!(
+        e.contains("c.toml:") && e.contains("no earlier `mesh`, `triangles` or `gltf` object is named 'tree'"),
+        "{e}"
+    );
 }

@@ -394,8 +394,17 @@ impl SceneFile {
             scene.lights.push(l);
         }
         let (mut warnings, mut objects) = (Vec::new(), Vec::new());
+        let instanced = self.objects.iter().filter_map(|o| o.get_ref().instance_of()).collect();
+        let placements = std::cell::RefCell::new(BTreeMap::new());
         for (i, object) in self.objects.iter().enumerate() {
-            let ctx = ObjectContext { span: object.span(), index: i, materials: &material_ids, base };
+            let ctx = ObjectContext {
+                span: object.span(),
+                index: i,
+                materials: &material_ids,
+                base,
+                instanced: &instanced,
+                placements: &placements,
+            };
             let o = object.get_ref();
             let (summary, object_warnings) = o.add_to(&mut scene, &ctx).map_err(|p| prefix(p, &o.label(i)))?;
             warnings.extend(object_warnings.into_iter().map(|w| prefix(w, &o.label(i))));

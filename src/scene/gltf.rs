@@ -24,15 +24,18 @@ use crate::math::Vec3;
 pub const DEFAULT_LIGHT_IRRADIANCE: f32 = std::f32::consts::PI;
 
 /// Adds what `file` (read from `path`) places to `scene`, every node's transform followed by
-/// `transform`; `material` replaces every material of the file when given. Returns what was
-/// added, for `strahl info`.
+/// `transform`; `material` replaces every material of the file when given. With
+/// `instance_all`, every mesh becomes a prototype (so that TOML `instance` objects can place
+/// the file again), else only meshes that several nodes use. Returns what was added, for
+/// `strahl info`, and the placements of the prototypes: (prototype, node transform).
 pub fn add_gltf(
     scene: &mut Scene,
     path: &Path,
     file: &GltfFile,
     transform: &Transform,
     material: Option<u32>,
-) -> ObjectSummary {
+    instance_all: bool,
+) -> (ObjectSummary, Vec<(u32, Transform)>) {
     let offset = scene.materials.len() as u32;
     if material.is_none() {
         let name = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into());
@@ -60,16 +63,18 @@ pub fn add_gltf(
     let mut uses = vec![0usize; file.meshes.len()];
     file.nodes.iter().for_each(|n| uses[n.mesh] += 1);
     let mut prototype_of: Vec<Option<u32>> = vec![None; file.meshes.len()];
+    let mut placements = Vec::new();
     let file_name = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into());
     for node in &file.nodes {
         let world = node.transform.then(transform);
-        if uses[node.mesh] > 1 {
+        if uses[node.mesh] > 1 || instance_all {
             let prototype = *prototype_of[node.mesh].get_or_insert_with(|| {
                 scene.prototypes.push(with_materials(file.meshes[node.mesh].clone()));
                 scene.prototypes.len() as u32 - 1
             });
             let name = format!("{file_name} node {}", node.node);
             scene.instances.push(Instance { name, prototype, transform: world, material: None });
+            placements.push((prototype, node.transform));
         } else {
             let mut mesh = with_materials(file.meshes[node.mesh].clone());
             world.apply_to_mesh(&mut mesh);
@@ -94,7 +99,7 @@ pub fn add_gltf(
     }
     used.sort_unstable();
     used.dedup();
-    ObjectSummary {
+    let summary = ObjectSummary {
         name: None,
         kind: "gltf",
         file: Some(path.to_owned()),
@@ -107,7 +112,8 @@ pub fn add_gltf(
         planes: 0,
         materials: used.into_iter().map(|i| scene.materials[i as usize].name.clone()).collect(),
         degenerate_dropped: 0,
-    }
+    };
+    (summary, placements)
 }
 
 /// A scene of the one glTF file at `path`: its meshes, materials and lights (the default light
@@ -118,7 +124,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
     let file = load_gltf(path)?;
     let mut warnings = file.warnings.clone();
     let mut scene = Scene::default();
-    let summary = add_gltf(&mut scene, path, &file, &Transform::default(), None);
+    let (summary, _) = add_gltf(&mut scene, path, &file, &Transform::default(), None, false);
     let chosen = match camera {
         None => file.cameras.first(),
         Some(wanted) => {
