@@ -49,7 +49,7 @@
 //! no per-channel copy of the frame is made, and the bytes are the same for any number of
 //! threads.
 
-use std::io::{Cursor, Seek, Write};
+use std::io::{Cursor, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use exr::block::BlockIndex;
@@ -59,7 +59,7 @@ use exr::meta::attribute::{AttributeValue, ChannelDescription, IntegerBounds, Sa
 use exr::meta::header::Header;
 use exr::prelude::{LineOrder, Vec2, f16};
 
-use super::atomic::{WriteError, write_atomically};
+use super::atomic::{WriteError, write_atomically_with};
 use crate::film::{ChannelView, Film};
 use crate::passes::Pass;
 
@@ -397,8 +397,9 @@ pub fn encode_blocks(
 /// non-standard attributes in a `HashMap` and writes them in its (random) iteration order;
 /// sorting them makes the bytes the same on every run. The header keeps its length, so the
 /// offset table after it stays valid. Leaves anything it cannot parse untouched.
-fn sort_header_attributes(bytes: &mut [u8]) {
-    let Some(spans) = header_attribute_spans(bytes) else { return };
+/// Returns where the sorted attributes end, if it sorted them.
+fn sort_header_attributes(bytes: &mut [u8]) -> Option<usize> {
+    let spans = header_attribute_spans(bytes)?;
     let (start, end) = (spans[0].start, spans[spans.len() - 1].end);
     let mut sorted: Vec<&std::ops::Range<usize>> = spans.iter().collect();
     sorted.sort_by(|a, b| {
@@ -407,6 +408,7 @@ fn sort_header_attributes(bytes: &mut [u8]) {
     });
     let reordered: Vec<u8> = sorted.iter().flat_map(|r| bytes[(*r).clone()].iter().copied()).collect();
     bytes[start..end].copy_from_slice(&reordered);
+    Some(end)
 }
 
 /// The byte ranges of the attributes of a single-part header (name, type, size, value each).
@@ -427,11 +429,34 @@ fn header_attribute_spans(bytes: &[u8]) -> Option<Vec<std::ops::Range<usize>>> {
     }
 }
 
-/// Writes `film` to `path` as OpenEXR, atomically, compressing on `threads` threads.
+/// Writes `film` to `path` as OpenEXR, atomically, compressing on `threads` threads. The
+/// blocks go to the file as they are compressed (the file is never whole in memory); the
+/// header's attributes are then sorted in place.
 pub fn write(film: &Film, options: &ExrOptions, path: &Path, threads: usize) -> std::result::Result<(), WriteError> {
-    let bytes =
-        encode(film, options, threads).map_err(|e| WriteError::new(path, format!("cannot encode OpenEXR: {e}")))?;
-    write_atomically(path, &bytes)
+    let mut encode_error = None;
+    let written = write_atomically_with(path, |file| {
+        if let Err(e) = encode_to(film, options, threads, &mut *file) {
+            let problem = format!("cannot encode OpenEXR: {e}");
+            encode_error = Some(problem.clone());
+            return Err(std::io::Error::other(problem));
+        }
+        file.flush()?;
+        let file = file.get_mut();
+        let length = file.seek(SeekFrom::End(0))?;
+        // The header ends where the blocks' offset table begins; 16 MB holds any header.
+        let mut head = vec![0u8; length.min(16 << 20) as usize];
+        file.seek(SeekFrom::Start(0))?;
+        file.read_exact(&mut head)?;
+        if let Some(end) = sort_header_attributes(&mut head) {
+            file.seek(SeekFrom::Start(0))?;
+            file.write_all(&head[..end])?;
+        }
+        Ok(())
+    });
+    match (written, encode_error) {
+        (Err(_), Some(problem)) => Err(WriteError::new(path, problem)),
+        (result, _) => result,
+    }
 }
 
 #[cfg(test)]
@@ -520,6 +545,23 @@ mod tests {
         assert_eq!(channel_name(Layout::Nuke, Pass::Depth, 0), "Z");
         assert_eq!(channel_name(Layout::Nuke, Pass::Normal, 1), "N.Y");
         assert_eq!(channel_name(Layout::Nuke, Pass::CryptoMaterial, 4), "CryptoMaterial01.R");
+    }
+
+    #[test]
+    fn the_streamed_file_is_the_encoded_bytes() {
+        let f = film(30, 40);
+        let options = ExrOptions {
+            attributes: vec![("b".into(), Attribute::Int(1)), ("a".into(), Attribute::Text("x".into()))],
+            ..Default::default()
+        };
+        let path = std::env::temp_dir().join(format!("strahl-exr-stream-{}.exr", std::process::id()));
+        write(&f, &options, &path, 2).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(bytes, encode(&f, &options, 1).unwrap());
+        let spans = header_attribute_spans(&bytes).unwrap();
+        let names: Vec<&[u8]> = spans.iter().map(|r| bytes[r.clone()].split(|&c| c == 0).next().unwrap()).collect();
+        assert!(names.is_sorted(), "attributes in name order");
     }
 
     #[test]
