@@ -321,8 +321,12 @@ pub fn encode_to<W: Write + Seek>(
                     batch.par_iter().map(|(_, block)| super::exr_zip::compress_block(&block.data)).collect()
                 });
                 for ((index, block), pixels) in batch.into_iter().zip(compressed) {
+                    // Lines are numbered in the file's coordinates: the data window's origin
+                    // (a region's) plus the line in the block's layer.
                     let y_coordinate = i32::try_from(block.index.pixel_position.1)
-                        .map_err(|_| exr::error::Error::Invalid("image too tall".into()))?;
+                        .ok()
+                        .and_then(|y| y.checked_add(meta.headers[0].own_attributes.layer_position.1))
+                        .ok_or_else(|| exr::error::Error::Invalid("image too tall".into()))?;
                     let compressed_block = CompressedBlock::ScanLine(CompressedScanLineBlock {
                         y_coordinate,
                         compressed_pixels_le: pixels,
