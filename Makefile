@@ -8,7 +8,7 @@ PACKAGES := libembree-dev libclang-dev gcc libc6-dev
 SCENES := $(wildcard scenes/*.toml)
 STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 
-.PHONY: all deps build demo test test-embree4 test-gltf-blender forest bench clean
+.PHONY: all deps test-deps build demo test test-embree4 test-gltf-blender forest bench clean
 
 all: build
 
@@ -39,7 +39,26 @@ demo: build
 	  $(STRAHL) render $$s -o out/$$n.exr --png out/$$n.png || exit 1; \
 	done
 
-test: deps
+# Readers strahl did not write, which tests use to check its files (they skip, saying so, when a
+# tool is missing): exrheader (openexr), oiiotool (openimageio-tools), Python's OpenEXR and mmh3.
+TEST_PACKAGES := openexr openimageio-tools
+test-deps:
+	@missing=""; \
+	for p in $(TEST_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ] && command -v apt-get >/dev/null; then \
+	  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
+	  echo "installing for the tests:$$missing"; \
+	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing >/dev/null || \
+	  echo "note: could not install$$missing; the tests that need them will say they skip"; \
+	fi
+	@python3 -c "import OpenEXR, mmh3, numpy" 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check OpenEXR mmh3 numpy 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check --break-system-packages OpenEXR mmh3 numpy 2>/dev/null || \
+	  echo "note: could not pip-install OpenEXR, mmh3, numpy; the tests that need them will say they skip"
+
+test: deps test-deps
 	$(CARGO) test --locked
 
 # The whole suite again against Embree 4 (Debian trixie's 4.3) in a cached debootstrap root
