@@ -323,8 +323,6 @@ fn write_blocks<W: Write + Seek>(
     out: W,
 ) -> std::result::Result<(), exr::error::Error> {
     let zip = matches!(header.compression, exr::compression::Compression::ZIP16 | exr::compression::Compression::ZIP1);
-    // A chunk names its first line in image coordinates: the data window's top plus the block's.
-    let data_y0 = header.own_attributes.layer_position.1 as i64;
     exr::block::write(out, exr::prelude::SmallVec::from_vec(vec![header]), true, |meta, chunk_writer| {
         let mut blocks = meta.collect_ordered_block_data(block);
         if zip {
@@ -344,8 +342,12 @@ fn write_blocks<W: Write + Seek>(
                     batch.par_iter().map(|(_, block)| super::exr_zip::compress_block(&block.data)).collect()
                 });
                 for ((index, block), pixels) in batch.into_iter().zip(compressed) {
-                    let y_coordinate = i32::try_from(data_y0 + block.index.pixel_position.1 as i64)
-                        .map_err(|_| exr::error::Error::Invalid("image too tall".into()))?;
+                    // Lines are numbered in the file's coordinates: the data window's origin
+                    // (a region's) plus the line in the block's layer.
+                    let y_coordinate = i32::try_from(block.index.pixel_position.1)
+                        .ok()
+                        .and_then(|y| y.checked_add(meta.headers[0].own_attributes.layer_position.1))
+                        .ok_or_else(|| exr::error::Error::Invalid("image too tall".into()))?;
                     let compressed_block = CompressedBlock::ScanLine(CompressedScanLineBlock {
                         y_coordinate,
                         compressed_pixels_le: pixels,
