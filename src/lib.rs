@@ -24,6 +24,7 @@ pub mod passes;
 pub mod sampler;
 pub mod scene;
 pub mod surface;
+pub mod texture;
 pub mod workload;
 
 pub use accel::{Accel, Hit, TraceError};

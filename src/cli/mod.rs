@@ -56,17 +56,30 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// Loads the scene at `path` and prints its warnings on stderr, one `warning: …` line each: a
-/// scene file (TOML), or a mesh file (OBJ, PLY) as a scene of that mesh alone
-/// ([`strahl::scene::from_mesh_file`]), told apart by the file's extension.
-fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
-    let loaded = match MeshFormat::of(path) {
-        Some(_) => strahl::scene::from_mesh_file(path)?,
-        None => strahl::scene::load(path)?,
+/// scene file (TOML), a glTF file (`.gltf`, `.glb`) with its own camera and lights
+/// ([`strahl::scene::from_gltf_file`], with `camera` choosing among its cameras), or a mesh
+/// file (OBJ, PLY) as a scene of that mesh alone ([`strahl::scene::from_mesh_file`]), told
+/// apart by the file's extension.
+fn load_scene_with_camera(path: &Path, camera: Option<&str>) -> anyhow::Result<strahl::scene::Loaded> {
+    let loaded = if strahl::io::gltf::is_gltf(path) {
+        strahl::scene::from_gltf_file(path, camera)?
+    } else if camera.is_some() {
+        anyhow::bail!("{}: --camera chooses among the cameras of a glTF file; this is not one", path.display());
+    } else {
+        match MeshFormat::of(path) {
+            Some(_) => strahl::scene::from_mesh_file(path)?,
+            None => strahl::scene::load(path)?,
+        }
     };
     for warning in &loaded.warnings {
         eprintln!("warning: {warning}");
     }
     Ok(loaded)
+}
+
+/// [`load_scene_with_camera`] with a glTF file's first camera.
+fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
+    load_scene_with_camera(path, None)
 }
 
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).

@@ -30,8 +30,11 @@ use strahl::scene::file::image_problem;
 /// Arguments of `strahl render`.
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// The scene file (TOML; see docs/scene-format.md).
+    /// The scene file (TOML; see docs/scene-format.md), or a glTF file (.gltf, .glb).
     scene: PathBuf,
+    /// Which camera of a glTF file to render through: its index or name [default: the first].
+    #[arg(long, value_name = "NAME|INDEX")]
+    camera: Option<String>,
     /// Where to write the OpenEXR image (linear RGBA, Z, N, albedo).
     #[arg(short, long, value_name = "OUT.exr")]
     output: PathBuf,
@@ -143,7 +146,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
 
-    let mut scene = super::load_scene(&args.scene)?.scene;
+    let mut scene = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?.scene;
     let image = &mut scene.image;
     image.width = args.width.unwrap_or(image.width);
     image.height = args.height.unwrap_or(image.height);

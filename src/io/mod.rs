@@ -3,6 +3,7 @@
 
 pub mod atomic;
 pub mod exr;
+pub mod gltf;
 pub mod mesh;
 pub mod metadata;
 pub mod obj;

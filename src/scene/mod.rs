@@ -3,16 +3,18 @@
 //!
 //! Loading a scene file ([`load`]: TOML, and the OBJ and PLY files it names) produces a
 //! [`Scene`], with the warnings to show and a summary of each object ([`Loaded`]); so does a
-//! lone mesh file ([`from_mesh_file`]). Nothing downstream knows which file format the
+//! lone mesh file ([`from_mesh_file`]) and a lone glTF file ([`from_gltf_file`]). Nothing downstream knows which file format the
 //! geometry came from.
 
 pub mod file;
+pub mod gltf;
 pub mod hash;
 pub mod mesh;
 pub mod procedural;
 pub mod transform;
 
 pub use file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};
+pub use gltf::from_gltf_file;
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};

@@ -1,5 +1,5 @@
 //! The `[[objects]]` of a scene file: spheres, planes, inline triangles, seeded random sphere
-//! fields and mesh files (OBJ, PLY), each with a material by name and a transform.
+//! fields, mesh files (OBJ, PLY) and glTF files, each with a material by name and a transform.
 //!
 //! One flat table type with a `type` key rather than a serde-tagged enum, because a tagged
 //! enum buffers its content and loses the spans; the keys a type does not take are rejected
@@ -28,6 +28,7 @@ enum ObjectKind {
     Triangles,
     RandomSpheres,
     Mesh,
+    Gltf,
 }
 
 impl ObjectKind {
@@ -38,6 +39,7 @@ impl ObjectKind {
             ObjectKind::Triangles => "triangles",
             ObjectKind::RandomSpheres => "random_spheres",
             ObjectKind::Mesh => "mesh",
+            ObjectKind::Gltf => "gltf",
         }
     }
 
@@ -64,6 +66,7 @@ impl ObjectKind {
                 "radii",
             ],
             ObjectKind::Mesh => &["name", "material", "translate", "rotate_deg", "scale", "path", "smooth_normals"],
+            ObjectKind::Gltf => &["name", "material", "translate", "rotate_deg", "scale", "path"],
         }
     }
 }
@@ -143,7 +146,7 @@ impl ObjectContext<'_> {
 pub struct ObjectSummary {
     /// The object's `name`, if it has one.
     pub name: Option<String>,
-    /// Its `type`: `sphere`, `plane`, `triangles`, `random_spheres` or `mesh`.
+    /// Its `type`: `sphere`, `plane`, `triangles`, `random_spheres`, `mesh` or `gltf`.
     pub kind: &'static str,
     /// The file a `mesh` object loaded, resolved against the scene file's folder.
     pub file: Option<PathBuf>,
@@ -307,6 +310,17 @@ impl ObjectFile {
                     scene.meshes.push(mesh);
                 }
                 return Ok(report);
+            }
+            ObjectKind::Gltf => {
+                // A glTF object adds its meshes, materials and lights (not its cameras): see
+                // `crate::scene::gltf`.
+                let path = required(&self.path, "path", &ctx.span)?;
+                let material = self.material.as_ref().map(|m| ctx.material(m)).transpose()?;
+                let file = ctx.base.join(path.get_ref());
+                let gltf = crate::io::gltf::load_gltf(&file, &mut crate::texture::TextureCache::default())
+                    .map_err(|e| at(path.span(), e.to_string()))?;
+                crate::scene::gltf::add_gltf(scene, &file, &gltf, &transform, material);
+                return Ok(FileReport { file: Some(file), warnings: gltf.warnings, degenerate_dropped: 0 });
             }
         }
         Ok(FileReport::default())
