@@ -15,12 +15,13 @@
 //! - **Bilinear filtering**: the four texels around `(u·W − ½, (1 − v)·H − ½)` weighted by the
 //!   fractional parts, as OpenGL's `GL_LINEAR` does.
 //!
-//! Texture memory is shared: [`TextureCache`] decodes each file once and materials hold an
+//! Texture memory is shared: [`open_shared`] decodes each file once and materials hold an
 //! [`Arc`] to the same texels.
 
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, Weak};
+use std::time::SystemTime;
 
 use crate::math::{Vec2, Vec3};
 
@@ -123,7 +124,7 @@ pub struct ImageTexture {
     pub wrap_u: Wrap,
     /// Wrap mode along `v` (glTF `wrapT`).
     pub wrap_v: Wrap,
-    /// Multiplies every texel (glTF `baseColorFactor`; 1 for OBJ's `map_Kd`, which replaces `Kd`).
+    /// Multiplies every texel (glTF `baseColorFactor`; OBJ's `Kd`, 1 when the MTL gives none).
     pub factor: Vec3,
 }
 
@@ -148,23 +149,23 @@ impl ImageTexture {
     }
 }
 
-/// Decoded images by file, so materials naming the same file share one copy of its texels.
-#[derive(Debug, Default)]
-pub struct TextureCache {
-    images: HashMap<PathBuf, Arc<Image>>,
-}
-
-impl TextureCache {
-    /// The image at `path`, decoded on first use.
-    pub fn open(&mut self, path: &Path) -> Result<Arc<Image>, String> {
-        let key = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
-        if let Some(image) = self.images.get(&key) {
-            return Ok(image.clone());
-        }
-        let image = Arc::new(Image::open(path)?);
-        self.images.insert(key, image.clone());
-        Ok(image)
+/// The decoded image of the file at `path`, shared: every material of the process that names
+/// the same file (same canonical path, size and modification time) while another still holds
+/// it gets the same texels, decoded once.
+pub fn open_shared(path: &Path) -> Result<Arc<Image>, String> {
+    /// A file by canonical path, size in bytes and modification time.
+    type FileKey = (PathBuf, u64, Option<SystemTime>);
+    static CACHE: Mutex<BTreeMap<FileKey, Weak<Image>>> = Mutex::new(BTreeMap::new());
+    let meta = std::fs::metadata(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
+    let key = (path.canonicalize().unwrap_or_else(|_| path.to_path_buf()), meta.len(), meta.modified().ok());
+    let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    cache.retain(|_, image| image.strong_count() > 0);
+    if let Some(image) = cache.get(&key).and_then(Weak::upgrade) {
+        return Ok(image);
     }
+    let image = Arc::new(Image::open(path)?);
+    cache.insert(key, Arc::downgrade(&image));
+    Ok(image)
 }
 
 #[cfg(test)]
@@ -226,5 +227,23 @@ mod tests {
     fn bad_bytes_are_named() {
         let e = Image::decode(b"not an image at all", "x.png").unwrap_err();
         assert!(e.starts_with("x.png: "), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod sharing {
+    use super::*;
+
+    #[test]
+    fn one_file_is_decoded_once_while_in_use() {
+        let dir = std::env::temp_dir().join(format!("strahl-texture-share-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.png");
+        image::RgbImage::from_pixel(2, 1, image::Rgb([255, 128, 0])).save(&path).unwrap();
+        let a = open_shared(&path).unwrap();
+        let b = open_shared(&dir.join(".").join("t.png")).unwrap();
+        assert!(Arc::ptr_eq(&a, &b));
+        assert_eq!(a.texels[0], Vec3::new(1.0, srgb_to_linear(128.0 / 255.0) as f32, 0.0));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -40,7 +40,7 @@ use crate::material::{Material, Texture};
 use crate::math::{Vec2, Vec3};
 use crate::scene::transform::Transform;
 use crate::scene::{CameraSpec, Mesh};
-use crate::texture::{Image, ImageTexture, TextureCache, Wrap};
+use crate::texture::{Image, ImageTexture, Wrap, open_shared};
 
 /// A node that places a mesh: `GltfFile::meshes[mesh]` through `transform` (object to world).
 #[derive(Clone, Debug)]
@@ -99,9 +99,9 @@ pub fn is_gltf(path: &Path) -> bool {
 /// Deepest node hierarchy followed (deeper is taken for a cycle).
 const MAX_NODE_DEPTH: usize = 1024;
 
-/// Reads the glTF or GLB file at `path`; `textures` shares decoded image files between
-/// materials (and with other files of the same scene).
-pub fn load_gltf(path: &Path, textures: &mut TextureCache) -> Result<GltfFile, MeshError> {
+/// Reads the glTF or GLB file at `path`. Image files are shared with every other material
+/// naming them ([`open_shared`]); images embedded in the file are decoded once per file.
+pub fn load_gltf(path: &Path) -> Result<GltfFile, MeshError> {
     let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
     let io = |problem| MeshError::Io { path: path.to_owned(), problem };
     let cap = super::read::max_mesh_bytes().map_err(io)?;
@@ -111,7 +111,7 @@ pub fn load_gltf(path: &Path, textures: &mut TextureCache) -> Result<GltfFile, M
     let base = path.parent().unwrap_or(Path::new(""));
     let mut out = GltfFile::default();
     let buffers = read_buffers(&document, base, blob, &mut out.files).map_err(err)?;
-    let mut reader = Reader { doc: &document, buffers: &buffers, base, textures, images: HashMap::new(), out };
+    let mut reader = Reader { doc: &document, buffers: &buffers, base, images: HashMap::new(), out };
     reader.materials().map_err(err)?;
     let scene = document.default_scene().or_else(|| document.scenes().next());
     let Some(scene) = scene else {
@@ -220,7 +220,6 @@ struct Reader<'a> {
     doc: &'a gltf::Document,
     buffers: &'a [Vec<u8>],
     base: &'a Path,
-    textures: &'a mut TextureCache,
     /// Decoded glTF images by index (shared by every texture naming the image).
     images: HashMap<usize, Arc<Image>>,
     out: GltfFile,
@@ -402,7 +401,7 @@ impl Reader<'_> {
                 if !file.is_file() {
                     return Err(format!("{}: no such file", file.display()));
                 }
-                let image = self.textures.open(&file)?;
+                let image = open_shared(&file)?;
                 self.out.files.push(file);
                 Ok(image)
             }

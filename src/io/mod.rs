@@ -3,6 +3,7 @@
 
 pub mod atomic;
 pub mod exr;
+mod exr_zip;
 pub mod gltf;
 pub mod mesh;
 pub mod metadata;

@@ -18,7 +18,6 @@ use super::{CameraSpec, ImageSpec, Scene};
 use crate::io::gltf::{GltfFile, load_gltf};
 use crate::light::Light;
 use crate::math::Vec3;
-use crate::texture::TextureCache;
 
 /// Irradiance of the default light of a glTF file without lights, W/m².
 pub const DEFAULT_LIGHT_IRRADIANCE: f32 = std::f32::consts::PI;
@@ -90,7 +89,7 @@ pub fn add_gltf(
 /// its node; the first when `None`).
 pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, SceneError> {
     let invalid = |message: String| SceneError::Invalid { path: path.to_owned(), message };
-    let file = load_gltf(path, &mut TextureCache::default())?;
+    let file = load_gltf(path)?;
     let mut warnings = file.warnings.clone();
     let mut scene = Scene::default();
     let summary = add_gltf(&mut scene, path, &file, &Transform::default(), None);

@@ -317,8 +317,7 @@ impl ObjectFile {
                 let path = required(&self.path, "path", &ctx.span)?;
                 let material = self.material.as_ref().map(|m| ctx.material(m)).transpose()?;
                 let file = ctx.base.join(path.get_ref());
-                let gltf = crate::io::gltf::load_gltf(&file, &mut crate::texture::TextureCache::default())
-                    .map_err(|e| at(path.span(), e.to_string()))?;
+                let gltf = crate::io::gltf::load_gltf(&file).map_err(|e| at(path.span(), e.to_string()))?;
                 crate::scene::gltf::add_gltf(scene, &file, &gltf, &transform, material);
                 return Ok(FileReport { file: Some(file), warnings: gltf.warnings, degenerate_dropped: 0 });
             }
