@@ -103,7 +103,9 @@ const MAX_NODE_DEPTH: usize = 1024;
 /// naming them ([`open_shared`]); images embedded in the file are decoded once per file.
 pub fn load_gltf(path: &Path) -> Result<GltfFile, MeshError> {
     let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.to_owned(), source })?;
+    let io = |problem| MeshError::Io { path: path.to_owned(), problem };
+    let cap = super::read::max_mesh_bytes().map_err(io)?;
+    let bytes = super::read::read_regular(path, cap, super::read::MESH_LIMIT_HINT).map_err(io)?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(gltf_error(&e)))?;
     drop(bytes);
     let base = path.parent().unwrap_or(Path::new(""));

@@ -11,6 +11,7 @@ pub mod obj;
 pub mod ply;
 pub mod png;
 pub mod polygon;
+pub mod read;
 mod text;
 
 pub use atomic::{WriteError, write_atomically};

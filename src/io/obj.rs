@@ -355,7 +355,8 @@ impl<'p> Reader<'p> {
                 ));
             }
             for file in files {
-                let data = std::fs::read(&file).map_err(|source| MeshError::Io { path: file.clone(), source })?;
+                // A library that cannot be read is an error at the `mtllib` line naming it.
+                let data = super::mesh::read_file(&file).map_err(|e| MeshError::at(path, *line, e.to_string()))?;
                 for m in parse_mtl(&file, &data, &mut warnings)? {
                     match by_name.get(&m.name) {
                         Some(&i) => materials[i as usize] = m,
@@ -428,13 +429,14 @@ fn default_name(path: &Path) -> String {
 }
 
 /// The MTL files an `mtllib` statement names: the whole text as one file name (names may
-/// contain spaces), else each whitespace-separated name that exists.
+/// contain spaces), else each whitespace-separated name that exists. Something that exists but
+/// is not a regular file (a FIFO, a directory) is returned too: reading it says what it is.
 fn library_files(dir: &Path, names: &str) -> Vec<PathBuf> {
     let whole = dir.join(names);
-    if whole.is_file() {
+    if whole.exists() {
         return vec![whole];
     }
-    names.split_whitespace().map(|n| dir.join(n)).filter(|p| p.is_file()).collect()
+    names.split_whitespace().map(|n| dir.join(n)).filter(|p| p.exists()).collect()
 }
 
 /// Turns one group's corner triangles into a mesh over its own vertices. Without any `vt`/`vn`
