@@ -8,7 +8,7 @@ PACKAGES := libembree-dev libclang-dev gcc libc6-dev
 SCENES := $(wildcard scenes/*.toml)
 STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 
-.PHONY: all deps build demo test bench clean
+.PHONY: all deps build demo test test-embree4 bench clean
 
 all: build
 
@@ -41,6 +41,11 @@ demo: build
 
 test: deps
 	$(CARGO) test --locked
+
+# The whole suite again against Embree 4 (Debian trixie's 4.3) in a cached debootstrap root
+# under /var/cache/strahl (needs root; see tools/test-embree4.sh).
+test-embree4:
+	bash tools/test-embree4.sh
 
 bench: deps
 	$(CARGO) bench --locked

@@ -48,14 +48,29 @@
 //! samples are summed in sample order, ray counts are integers, and tiles are assembled in a
 //! fixed order, so the film and the counts are bit-identical for any number of threads. What the film's channels hold is
 //! documented in [`crate::film`].
+//!
+//! **Passes.** Shading the camera ray's hit also splits its radiance into the six terms of
+//! the formula ([`Radiance`]: emission + ambient, direct diffuse, direct specular, reflection,
+//! transmission, and the background of a camera ray that escapes), the light-path passes of
+//! [`crate::passes`]. The beauty is still summed as before, term by term in the same order, so
+//! the passes add up to it to float rounding and the beauty does not change.
+//!
+//! **Streaming.** Each tile's pixels go into the one film as the tile finishes (under a lock
+//! held for the tile's copy); no second frame-sized buffer exists. Every pixel is written by
+//! exactly one tile, so the order tiles finish in does not matter.
+
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Hit, TraceError};
 use crate::camera::Camera;
+use crate::cryptomatte;
 use crate::film::Film;
+use crate::ids::ObjectIds;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::optics;
+use crate::passes::{LIGHT_PASSES, Pass};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
@@ -119,25 +134,26 @@ pub fn render<A: Accel>(
     let img = &scene.image;
     let camera = Camera::new(&scene.camera, img.width, img.height)?;
     let whitted = Whitted { scene, accel, camera };
-    let tiles = tiles(img.width, img.height);
-    let done: Vec<TileResult> = tiles
+    let ids = ObjectIds::new(scene);
+    let film = Mutex::new(Film::with_output(img.width, img.height, &scene.output));
+    let counts = tiles(img.width, img.height)
         .par_iter()
         .map(|tile| {
-            let result = whitted.render_tile(tile);
+            let (pixels, accumulators, counts) = whitted.render_tile(tile, &ids)?;
+            {
+                let mut film = film.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+                for (&(x, y), acc) in pixels.iter().zip(&accumulators) {
+                    acc.write(&mut film, x, y, scene, &ids);
+                }
+            }
             progress(tile.pixel_count());
-            result
+            Ok::<_, TraceError>(counts)
         })
-        .collect::<Result<_, _>>()?;
-
-    let mut film = Film::new(img.width, img.height);
-    let mut counts = RayCounts::default();
-    for tile in done {
-        counts += tile.counts;
-        for (&(x, y), acc) in tile.pixels.iter().zip(&tile.accumulators) {
-            acc.write(&mut film, x, y, img.spp);
-        }
-    }
-    Ok((film, counts))
+        .try_reduce(RayCounts::default, |mut a, b| {
+            a += b;
+            Ok(a)
+        })?;
+    Ok((film.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner()), counts))
 }
 
 /// Checks everything the integrator indexes or divides by, so that rendering cannot panic or
@@ -232,11 +248,34 @@ fn tiles(width: u32, height: u32) -> Vec<Tile> {
     out
 }
 
-/// What a tile produced: its pixels (in packet order), their accumulated samples, its rays.
-struct TileResult {
-    pixels: Vec<(u32, u32)>,
-    accumulators: Vec<PixelAccumulator>,
-    counts: RayCounts,
+/// The radiance of a camera ray split into the terms of the shading formula (the module
+/// docs); their sum is the beauty to float rounding. Each is in W/(m²·sr).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Radiance {
+    /// Emission `L_e` plus ambient `ρ·L_a` of the first hit.
+    pub emission: Vec3,
+    /// Direct light reflected by the Lambert lobe at the first hit.
+    pub diffuse: Vec3,
+    /// Direct light reflected by the Blinn–Phong highlight at the first hit.
+    pub specular: Vec3,
+    /// What the mirror and Fresnel reflection at the first hit bring, weighted.
+    pub reflection: Vec3,
+    /// What the refraction at the first hit brings, weighted.
+    pub transmission: Vec3,
+    /// The background radiance of a camera ray that hits nothing.
+    pub background: Vec3,
+}
+
+impl Radiance {
+    /// The terms in the order of [`LIGHT_PASSES`].
+    pub fn terms(&self) -> [Vec3; 6] {
+        [self.emission, self.diffuse, self.specular, self.reflection, self.transmission, self.background]
+    }
+
+    /// The sum of the terms.
+    pub fn sum(&self) -> Vec3 {
+        self.terms().into_iter().sum()
+    }
 }
 
 /// What a primary ray found at its first hit, for the AOVs.
@@ -248,40 +287,105 @@ pub struct FirstHit {
     pub normal: Vec3,
     /// Diffuse albedo.
     pub albedo: Vec3,
+    /// World-space position.
+    pub p: Vec3,
+    /// The scene's material index.
+    pub material: u32,
+    /// The hit itself (which object: [`ObjectIds::object_of`]).
+    pub hit: Hit,
 }
 
 /// The running sums of one pixel's samples (added in sample order, so deterministically).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 struct PixelAccumulator {
     radiance: Vec3,
+    split: [Vec3; 6],
     hits: u32,
-    nearest: Option<f32>,
+    nearest: Option<FirstHit>,
     normal: Vec3,
     albedo: Vec3,
+    /// (object, samples) and (material, samples), only when a Cryptomatte pass is on.
+    objects: Vec<(u32, u32)>,
+    materials: Vec<(u32, u32)>,
+}
+
+/// Adds one sample of `key` to a list of (key, count).
+fn count(list: &mut Vec<(u32, u32)>, key: u32) {
+    match list.iter_mut().find(|(k, _)| *k == key) {
+        Some((_, n)) => *n += 1,
+        None => list.push((key, 1)),
+    }
 }
 
 impl PixelAccumulator {
-    fn add(&mut self, radiance: Vec3, first: Option<FirstHit>) {
+    /// Adds one sample: its beauty, its split, its first hit and, when Cryptomatte is on
+    /// (`object` is `Some`), the object of that hit.
+    fn add(&mut self, radiance: Vec3, split: &Radiance, first: Option<FirstHit>, object: Option<u32>) {
         self.radiance += radiance;
+        for (sum, term) in self.split.iter_mut().zip(split.terms()) {
+            *sum += term;
+        }
         if let Some(f) = first {
             self.hits += 1;
-            self.nearest = Some(self.nearest.map_or(f.t, |t| t.min(f.t)));
+            // The nearest sample's hit; the first in sample order among equals.
+            if self.nearest.is_none_or(|n| f.t < n.t) {
+                self.nearest = Some(f);
+            }
             self.normal += f.normal;
             self.albedo += f.albedo;
+            if let Some(object) = object {
+                count(&mut self.objects, object);
+                count(&mut self.materials, f.material);
+            }
         }
     }
 
     /// Box filter: the mean over all `spp` samples for RGB and alpha, over the hit samples for
     /// normal and albedo; the nearest hit for depth (see [`crate::film`]).
-    fn write(&self, film: &mut Film, x: u32, y: u32, spp: u32) {
+    fn write(&self, film: &mut Film, x: u32, y: u32, scene: &Scene, ids: &ObjectIds) {
+        let spp = scene.image.spp;
         let i = film.index(x, y);
         let rgb = self.radiance / spp as f32;
-        film.rgba[i] = [rgb.x, rgb.y, rgb.z, self.hits as f32 / spp as f32];
-        if let Some(t) = self.nearest {
-            film.depth[i] = t;
-            // One unit normal needs no renormalising (which could move it by an ulp).
-            film.normal[i] = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
-            film.albedo[i] = self.albedo / self.hits as f32;
+        let alpha = if scene.output.transparent { self.hits as f32 / spp as f32 } else { 1.0 };
+        film.rgba[i] = [rgb.x, rgb.y, rgb.z, alpha];
+        if let Some(first) = self.nearest {
+            if let Some(depth) = film.depth.get_mut(i) {
+                *depth = first.t;
+            }
+            if let Some(normal) = film.normal.get_mut(i) {
+                // One unit normal needs no renormalising (which could move it by an ulp).
+                *normal = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
+            }
+            if let Some(albedo) = film.albedo.get_mut(i) {
+                *albedo = self.albedo / self.hits as f32;
+            }
+        }
+        for aov in &mut film.aovs {
+            let out = &mut aov.data[i * aov.floats_per_pixel..(i + 1) * aov.floats_per_pixel];
+            match aov.pass {
+                pass if pass.is_light() => {
+                    let k = LIGHT_PASSES.iter().position(|&p| p == pass).unwrap_or(0);
+                    out.copy_from_slice(&(self.split[k] / spp as f32).to_array());
+                }
+                Pass::Position => {
+                    out.copy_from_slice(&self.nearest.map_or(Vec3::ZERO, |f| f.p).to_array());
+                }
+                Pass::ObjectIndex => {
+                    out[0] = self.nearest.map_or(0.0, |f| (ids.object_of(scene, &f.hit) + 1) as f32);
+                }
+                Pass::MaterialIndex => out[0] = self.nearest.map_or(0.0, |f| (f.material + 1) as f32),
+                Pass::CryptoObject => {
+                    let mut counts: Vec<(u32, u32)> =
+                        self.objects.iter().map(|&(o, n)| (ids.object_id_bits[o as usize], n)).collect();
+                    cryptomatte::write_ranks(&mut counts, spp, out);
+                }
+                Pass::CryptoMaterial => {
+                    let mut counts: Vec<(u32, u32)> =
+                        self.materials.iter().map(|&(m, n)| (ids.material_id_bits[m as usize], n)).collect();
+                    cryptomatte::write_ranks(&mut counts, spp, out);
+                }
+                _ => {}
+            }
         }
     }
 }
@@ -295,13 +399,21 @@ pub struct Whitted<'a, A: Accel> {
 
 impl<A: Accel> Whitted<'_, A> {
     /// Renders one tile: all its pixels' samples, sample by sample, each round as one batch
-    /// of primary rays.
-    fn render_tile(&self, tile: &Tile) -> Result<TileResult, TraceError> {
+    /// of primary rays. Returns the pixels (in packet order), their accumulated samples and the
+    /// rays traced.
+    #[allow(clippy::type_complexity)]
+    fn render_tile(
+        &self,
+        tile: &Tile,
+        ids: &ObjectIds,
+    ) -> Result<(Vec<(u32, u32)>, Vec<PixelAccumulator>, RayCounts), TraceError> {
         // Embree asks for flush-to-zero in every thread that traces; setting it here (two
         // instructions) also makes shading arithmetic identical on every worker, whatever
         // the pool's start handler did.
         crate::embree::enable_flush_to_zero();
         let width = self.scene.image.width as u64;
+        let passes = self.scene.output.passes;
+        let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
         let pixels = tile.pixels_in_packet_order();
         let mut samplers: Vec<PixelSampler> =
             pixels.iter().map(|&(x, y)| PixelSampler::new(self.scene.image.spp, y as u64 * width + x as u64)).collect();
@@ -318,11 +430,17 @@ impl<A: Accel> Whitted<'_, A> {
             self.accel.intersect_batch(&rays, &mut hits)?;
             // 3. Shading.
             for ((ray, hit), acc) in rays.iter().zip(&hits).zip(&mut accumulators) {
-                let (radiance, first) = self.shade_primary(ray, hit.as_ref(), &mut counts)?;
-                acc.add(radiance, first);
+                let (radiance, split, first) = self.shade_primary_split(ray, hit.as_ref(), &mut counts)?;
+                let object = first.filter(|_| crypto).map(|f| ids.object_of(self.scene, &f.hit));
+                acc.add(radiance, &split, first, object);
             }
         }
-        Ok(TileResult { pixels, accumulators, counts })
+        Ok((pixels, accumulators, counts))
+    }
+
+    /// The radiance of rays that hit nothing: the background, or 0 in a transparent render.
+    fn background(&self) -> Vec3 {
+        if self.scene.output.transparent { Vec3::ZERO } else { self.scene.image.background }
     }
 
     /// The radiance along a primary ray whose closest hit is `hit`, and what the AOVs record
@@ -333,19 +451,33 @@ impl<A: Accel> Whitted<'_, A> {
         hit: Option<&Hit>,
         counts: &mut RayCounts,
     ) -> Result<(Vec3, Option<FirstHit>), TraceError> {
+        let (radiance, _, first) = self.shade_primary_split(ray, hit, counts)?;
+        Ok((radiance, first))
+    }
+
+    /// [`Whitted::shade_primary`] with the radiance also split into its terms.
+    pub fn shade_primary_split(
+        &self,
+        ray: &Ray,
+        hit: Option<&Hit>,
+        counts: &mut RayCounts,
+    ) -> Result<(Vec3, Radiance, Option<FirstHit>), TraceError> {
         let Some(hit) = hit else {
-            return Ok((self.scene.image.background, None));
+            let background = self.background();
+            return Ok((background, Radiance { background, ..Default::default() }, None));
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
-        let first = FirstHit { t: hit.t, normal: sp.ns, albedo: sp.albedo };
-        Ok((self.shade(ray, &sp, 0, Vec3::ONE, counts)?, Some(first)))
+        let first = FirstHit { t: hit.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit };
+        let mut split = Radiance::default();
+        let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, counts, Some(&mut split))?;
+        Ok((radiance, split, Some(first)))
     }
 
     /// Steps 2 and 3 for a secondary ray at recursion depth `depth` whose path so far weighs
     /// `throughput`: the radiance arriving along it.
     pub fn trace(&self, ray: &Ray, depth: u32, throughput: Vec3, counts: &mut RayCounts) -> Result<Vec3, TraceError> {
         match self.accel.intersect(ray)? {
-            None => Ok(self.scene.image.background),
+            None => Ok(self.background()),
             Some(hit) => {
                 let sp = SurfacePoint::new(self.scene, ray, &hit);
                 self.shade(ray, &sp, depth, throughput, counts)
@@ -363,12 +495,29 @@ impl<A: Accel> Whitted<'_, A> {
         throughput: Vec3,
         counts: &mut RayCounts,
     ) -> Result<Vec3, TraceError> {
+        self.shade_split(ray, sp, depth, throughput, counts, None)
+    }
+
+    /// [`Whitted::shade`], also adding each term to `split` when given. The returned radiance
+    /// is summed exactly as without `split`.
+    fn shade_split(
+        &self,
+        ray: &Ray,
+        sp: &SurfacePoint,
+        depth: u32,
+        throughput: Vec3,
+        counts: &mut RayCounts,
+        mut split: Option<&mut Radiance>,
+    ) -> Result<Vec3, TraceError> {
         let scene = self.scene;
         let m = &scene.materials[sp.material as usize];
         let wo = -ray.dir;
 
         // Emission and ambient: a diffuse surface under uniform radiance L_a reflects ρ·L_a.
         let mut l = m.emission + sp.albedo * scene.image.ambient;
+        if let Some(split) = split.as_deref_mut() {
+            split.emission = l;
+        }
 
         // Direct light, one shadow ray per light.
         if sp.albedo != Vec3::ZERO || m.specular != Vec3::ZERO {
@@ -390,12 +539,19 @@ impl<A: Accel> Whitted<'_, A> {
                 if self.accel.occluded(&shadow)? {
                     continue;
                 }
-                let mut brdf = optics::lambert(sp.albedo);
+                let lambert = optics::lambert(sp.albedo);
+                let mut brdf = lambert;
+                let mut highlight = Vec3::ZERO;
                 if m.specular != Vec3::ZERO {
                     let h = (inc.to_light + wo).normalize_or_zero();
-                    brdf += m.specular * optics::blinn_phong(sp.ns.dot(h), m.shininess);
+                    highlight = m.specular * optics::blinn_phong(sp.ns.dot(h), m.shininess);
+                    brdf += highlight;
                 }
                 l += brdf * inc.normal_irradiance * cos;
+                if let Some(split) = split.as_deref_mut() {
+                    split.diffuse += lambert * inc.normal_irradiance * cos;
+                    split.specular += highlight * inc.normal_irradiance * cos;
+                }
             }
         }
 
@@ -429,14 +585,22 @@ impl<A: Accel> Whitted<'_, A> {
             }
             let reflected = Ray::new(offset_ray_origin(sp.p, sp.ng), dir.normalize());
             counts.reflected += 1;
-            l += reflect_weight * self.trace(&reflected, depth + 1, throughput * reflect_weight, counts)?;
+            let reflection = reflect_weight * self.trace(&reflected, depth + 1, throughput * reflect_weight, counts)?;
+            l += reflection;
+            if let Some(split) = split.as_deref_mut() {
+                split.reflection = reflection;
+            }
         }
 
         // Refraction.
         if let Some((dir, weight)) = refract.filter(|(_, w)| (throughput * *w).max_element() >= THROUGHPUT_CUTOFF) {
             let refracted = Ray::new(offset_ray_origin(sp.p, -sp.ng), dir);
             counts.refracted += 1;
-            l += weight * self.trace(&refracted, depth + 1, throughput * weight, counts)?;
+            let transmission = weight * self.trace(&refracted, depth + 1, throughput * weight, counts)?;
+            l += transmission;
+            if let Some(split) = split {
+                split.transmission = transmission;
+            }
         }
         Ok(l)
     }

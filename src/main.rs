@@ -16,7 +16,13 @@ fn main() -> ExitCode {
     }));
     let args = match cli::Cli::try_parse() {
         Ok(args) => args,
-        // --help, --version, and the help shown for a bare `strahl`.
+        // --version names the Embree library and ISA strahl traces with, so that a report says
+        // which one a user has.
+        Err(e) if e.kind() == ErrorKind::DisplayVersion => {
+            println!("{}", cli::version_report());
+            return ExitCode::SUCCESS;
+        }
+        // --help, and the help shown for a bare `strahl`.
         Err(e) if !e.use_stderr() || e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
         Err(e) => {
             // clap's message, without its usage block, on one line; status 2 for usage errors.

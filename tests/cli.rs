@@ -12,7 +12,20 @@ use glam::DVec3;
 use strahl::material::Texture;
 use strahl::scene::Scene;
 
-const CHANNELS_SORTED: [&str; 11] = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "albedo.B", "albedo.G", "albedo.R"];
+/// The default passes in Blender's multilayer naming, as EXR sorts them.
+const CHANNELS_SORTED: [&str; 11] = [
+    "ViewLayer.Combined.A",
+    "ViewLayer.Combined.B",
+    "ViewLayer.Combined.G",
+    "ViewLayer.Combined.R",
+    "ViewLayer.Depth.Z",
+    "ViewLayer.DiffCol.B",
+    "ViewLayer.DiffCol.G",
+    "ViewLayer.DiffCol.R",
+    "ViewLayer.Normal.X",
+    "ViewLayer.Normal.Y",
+    "ViewLayer.Normal.Z",
+];
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
@@ -47,12 +60,15 @@ fn render_small(scene: &Path, dir: &TempDir, threads: &str, w: u32, h: u32) -> (
 fn render_writes_the_documented_exr_channels_and_a_png() {
     let dir = TempDir::new("channels");
     let (exr, png, out) = render_small(&scene_path("whitted.toml"), &dir, "2", 64, 48);
-    // The summary on stdout; nothing on stderr (the progress bar hides off a terminal).
+    // The summary on stdout; on stderr only what is being written (renders this small end
+    // before the first progress line).
     let stdout = text(&out.stdout);
     assert!(stdout.contains("whitted.toml: 64 × 48 pixels, 1 spp, max depth 8, 2 threads"), "{stdout}");
     assert!(stdout.contains("primary") && stdout.contains("shadow") && stdout.contains("refracted"), "{stdout}");
     assert!(stdout.contains("Mrays/s"), "{stdout}");
-    assert_eq!(text(&out.stderr), "");
+    let (exr_shown, png_shown) = (dir.path("t2.exr").display().to_string(), dir.path("t2.png").display().to_string());
+    assert_eq!(text(&out.stderr), format!("writing {exr_shown} ...\nwriting {png_shown} ...\n"));
+    assert!(stdout.contains(&format!("wrote {exr_shown} (")) && stdout.contains(" MB), "), "{stdout}");
     assert_eq!(dir.entries(), ["t2.exr", "t2.png"], "no temporary files left");
 
     let (w, h, channels) = read_exr(&exr);
@@ -62,14 +78,14 @@ fn render_writes_the_documented_exr_channels_and_a_png() {
     for (name, values) in &channels {
         assert_eq!(values.len(), 64 * 48);
         for (i, &v) in values.iter().enumerate() {
-            if name == "Z" {
+            if name == "ViewLayer.Depth.Z" {
                 assert!(v == f32::INFINITY || (v.is_finite() && v > 0.0), "Z[{i}] = {v}");
             } else {
                 assert!(v.is_finite(), "{name}[{i}] = {v}");
             }
         }
     }
-    for (i, &a) in channel(&channels, "A").iter().enumerate() {
+    for (i, &a) in channel(&channels, "ViewLayer.Combined.A").iter().enumerate() {
         assert!((0.0..=1.0).contains(&a), "A[{i}] = {a}");
     }
 
@@ -81,7 +97,11 @@ fn render_writes_the_documented_exr_channels_and_a_png() {
         let e = if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
         (e * 255.0).round() as i32
     };
-    let (r, g, b) = (channel(&channels, "R"), channel(&channels, "G"), channel(&channels, "B"));
+    let (r, g, b) = (
+        channel(&channels, "ViewLayer.Combined.R"),
+        channel(&channels, "ViewLayer.Combined.G"),
+        channel(&channels, "ViewLayer.Combined.B"),
+    );
     for (i, px) in img.pixels().enumerate() {
         let want = [srgb8(r[i]), srgb8(g[i]), srgb8(b[i])];
         for c in 0..3 {
@@ -215,10 +235,16 @@ fn depth_normal_albedo_and_alpha_match_the_analytic_scene() {
     let mut scene = strahl::scene::load(&path).unwrap().scene;
     (scene.image.width, scene.image.height) = (w as u32, h as u32);
     let (_, _, ch) = read_exr(&exr);
-    let (z, a) = (channel(&ch, "Z"), channel(&ch, "A"));
-    let n = [channel(&ch, "N.X"), channel(&ch, "N.Y"), channel(&ch, "N.Z")];
-    let albedo = [channel(&ch, "albedo.R"), channel(&ch, "albedo.G"), channel(&ch, "albedo.B")];
-    let rgb = [channel(&ch, "R"), channel(&ch, "G"), channel(&ch, "B")];
+    let (z, a) = (channel(&ch, "ViewLayer.Depth.Z"), channel(&ch, "ViewLayer.Combined.A"));
+    let n =
+        [channel(&ch, "ViewLayer.Normal.X"), channel(&ch, "ViewLayer.Normal.Y"), channel(&ch, "ViewLayer.Normal.Z")];
+    let albedo =
+        [channel(&ch, "ViewLayer.DiffCol.R"), channel(&ch, "ViewLayer.DiffCol.G"), channel(&ch, "ViewLayer.DiffCol.B")];
+    let rgb = [
+        channel(&ch, "ViewLayer.Combined.R"),
+        channel(&ch, "ViewLayer.Combined.G"),
+        channel(&ch, "ViewLayer.Combined.B"),
+    ];
     let (mut planes, mut spheres, mut misses) = (0, 0, 0);
     for y in 0..h {
         for x in 0..w {
@@ -231,7 +257,7 @@ fn depth_normal_albedo_and_alpha_match_the_analytic_scene() {
                 FirstHit::Nothing => {
                     misses += 1;
                     assert_eq!(z[i], f32::INFINITY, "pixel ({x}, {y}) sees nothing");
-                    assert_eq!(a[i], 0.0, "pixel ({x}, {y})");
+                    assert_eq!(a[i], 1.0, "pixel ({x}, {y}): an opaque frame");
                     let bg = scene.image.background;
                     assert_eq!([rgb[0][i], rgb[1][i], rgb[2][i]], [bg.x, bg.y, bg.z], "pixel ({x}, {y})");
                 }
@@ -287,7 +313,11 @@ fn lit_floor_is_lambertian_under_a_point_and_a_directional_light() {
     let mut scene = strahl::scene::load(&path).unwrap().scene;
     (scene.image.width, scene.image.height) = (w as u32, h as u32);
     let (_, _, ch) = read_exr(&exr);
-    let rgb = [channel(&ch, "R"), channel(&ch, "G"), channel(&ch, "B")];
+    let rgb = [
+        channel(&ch, "ViewLayer.Combined.R"),
+        channel(&ch, "ViewLayer.Combined.G"),
+        channel(&ch, "ViewLayer.Combined.B"),
+    ];
     let (mut lit, mut shadowed) = (0, 0);
     for y in 0..h {
         for x in 0..w {

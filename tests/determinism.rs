@@ -71,7 +71,8 @@ fn one_sample_per_pixel_is_exactly_the_pixel_centre_ray() {
             let hit = accel.intersect(&ray).unwrap();
             let (rgb, first) = whitted.shade_primary(&ray, hit.as_ref(), &mut by_hand).unwrap();
             let i = film.index(x, y);
-            assert_eq!(film.rgba[i], [rgb.x, rgb.y, rgb.z, hit.is_some() as u32 as f32], "pixel ({x}, {y})");
+            // An opaque frame: alpha 1 everywhere, the sky in RGB.
+            assert_eq!(film.rgba[i], [rgb.x, rgb.y, rgb.z, 1.0], "pixel ({x}, {y})");
             assert_eq!(film.depth[i], first.map_or(f32::INFINITY, |f| f.t));
             assert_eq!(film.normal[i], first.map_or(Vec3::ZERO, |f| f.normal));
         }
@@ -83,7 +84,9 @@ fn one_sample_per_pixel_is_exactly_the_pixel_centre_ray() {
 #[test]
 fn four_samples_are_four_distinct_stratified_positions_averaged() {
     let (w, h) = (20u32, 14u32);
-    let scene = whitted_showcase(w, h, 4);
+    // Transparent: rays that escape give 0 and alpha is the coverage.
+    let mut scene = whitted_showcase(w, h, 4);
+    scene.output.transparent = true;
     let accel = common::accel(&scene);
     let (film, _) = integrator::render(&scene, &accel, &|_| {}).unwrap();
     let camera = Camera::new(&scene.camera, w, h).unwrap();

@@ -396,10 +396,15 @@ fn rays_that_miss_everything_see_the_background_and_leave_empty_aovs() {
     s.camera.target = Vec3::new(0.0, 4.0, 0.0); // looking up, away from the floor
     let (film, counts) = common::render(&s);
     for i in 0..film.rgba.len() {
-        assert_eq!(film.rgba[i], [BACKGROUND.x, BACKGROUND.y, BACKGROUND.z, 0.0]);
+        // An opaque frame: the background in RGB, alpha 1.
+        assert_eq!(film.rgba[i], [BACKGROUND.x, BACKGROUND.y, BACKGROUND.z, 1.0]);
         assert_eq!((film.depth[i], film.normal[i], film.albedo[i]), (f32::INFINITY, Vec3::ZERO, Vec3::ZERO));
     }
     assert_eq!(counts, RayCounts { primary: 63, ..Default::default() });
+    // Transparent: RGBA 0 where nothing is hit.
+    s.output.transparent = true;
+    let (film, _) = common::render(&s);
+    assert!(film.rgba.iter().all(|&px| px == [0.0; 4]));
 }
 
 #[test]

@@ -1,47 +1,201 @@
 #!/usr/bin/env bash
-# Runs strahl's tests against Embree 4 (Debian trixie's libembree-dev, 4.3.x built with
-# instance arrays: RTCRayHit is 96 bytes there) from this Debian bookworm machine, in a minimal
-# trixie root made with debootstrap. Needs root. Not part of CI: a developer's check that the
-# cfg(embree4) paths of src/embree/ build and pass.
+# Runs strahl's WHOLE test suite against Embree 4 (Debian trixie's libembree-dev, 4.3.x built
+# with instance arrays: RTCRayHit is 96 bytes there) from this Debian bookworm machine, inside a
+# minimal trixie root made with debootstrap. `make test-embree4` calls it; `.ci/run` calls that.
 #
-#   sudo tools/test-embree4.sh [ROOT]     (ROOT defaults to /var/tmp/strahl-trixie)
+#   tools/test-embree4.sh             run the suite (needs root: debootstrap, mount, chroot)
+#   tools/test-embree4.sh --check     exit 0 if this machine can run it, else print why, exit 1
 #
-# The host's toolchain (~/.rustup, ~/.cargo) is bind-mounted; crates.io is not reachable from
-# inside, so dependencies are fetched on the host first and the build runs --offline, into a
-# separate target directory (build scripts linked inside need trixie's glibc).
+# Exit status: 0 passed, 1 the suite failed (or cannot run here), 3 the root could not be made
+# (no network, mirror down) — 0 instead with STRAHL_EMBREE4_OPTIONAL=1, as CI sets it.
+#
+# Cache (kept between runs, documented in the README):
+#   $STRAHL_EMBREE4_CACHE (default /var/cache/strahl): trixie-root/ (the prepared root, reused
+#   while its stamp file says it is complete) and target/ (the Embree-4 build's target dir).
+#   First run: debootstrap + packages, about a minute; later runs reuse both.
+#
+# Safety: every mount is undone on every exit path (a trap on EXIT, INT, TERM, HUP); mounts left
+# inside the root by a killed run are found in /proc/mounts and undone first; the root is only
+# ever deleted with `rm --one-file-system`, after checking nothing is mounted inside it.
+#
+# The host's toolchain (~/.rustup read-only, ~/.cargo) is bind-mounted at the same paths; the
+# package registry is not reachable from inside, so dependencies are fetched on the host first
+# and the build runs --offline. Build scripts linked inside need trixie's glibc, hence the
+# separate target directory.
 set -euo pipefail
-ROOT=${1:-/var/tmp/strahl-trixie}
-REPO=$(cd "$(dirname "$0")/.." && pwd)
-MIRROR=${MIRROR:-http://deb.debian.org/debian}
-[ "$(id -u)" -eq 0 ] || { echo "error: needs root (debootstrap, mount, chroot)" >&2; exit 1; }
 
-if [ ! -x "$ROOT/usr/bin/apt-get" ]; then
-  command -v debootstrap >/dev/null || apt-get install -y -qq debootstrap
-  debootstrap --variant=minbase trixie "$ROOT" "$MIRROR"
+CACHE=${STRAHL_EMBREE4_CACHE:-/var/cache/strahl}
+ROOT=$CACHE/trixie-root
+TARGET=$CACHE/target
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+SHARED=$(cd "$REPO/.." && pwd)/shared
+MIRROR=${MIRROR:-http://deb.debian.org/debian}
+# Packages of the root; the stamp names them so that a change rebuilds the root.
+PACKAGES="libembree-dev libclang1-19 libclang-common-19-dev gcc libc6-dev ca-certificates python3"
+STAMP="strahl-root-v1: $PACKAGES"
+
+say() { echo "test-embree4: $*" >&2; }
+
+# Why this machine cannot run the suite (empty if it can).
+cannot() {
+  [ "$(id -u)" -eq 0 ] || { echo "needs root (debootstrap, mount, chroot)"; return; }
+  [ "$(uname -m)" = x86_64 ] || { echo "needs an x86_64 machine (Debian trixie amd64 root)"; return; }
+  command -v chroot >/dev/null || { echo "chroot is missing"; return; }
+  if ! command -v debootstrap >/dev/null && ! [ -f "$ROOT/.strahl-ready" ]; then
+    command -v apt-get >/dev/null || { echo "debootstrap is missing and apt-get cannot install it"; return; }
+  fi
+  command -v cargo >/dev/null || { echo "cargo is missing"; return; }
+  [ -d "$HOME/.rustup" ] && [ -d "$HOME/.cargo" ] || { echo "the Rust toolchain is not under \$HOME/.rustup and \$HOME/.cargo"; return; }
+}
+
+if [ "${1:-}" = --check ]; then
+  why=$(cannot)
+  [ -z "$why" ] || { echo "$why"; exit 1; }
+  exit 0
 fi
-(cd "$REPO" && cargo fetch --locked)
+why=$(cannot)
+[ -z "$why" ] || { say "error: $why"; exit 1; }
+
+# Mount points inside $1, deepest first (from the kernel's table, so stale ones are found too).
+mounts_under() {
+  awk -v root="$1" '{ gsub(/\\040/, " ", $2); if ($2 == root || index($2, root "/") == 1) print $2 }' /proc/mounts |
+    awk '{ print length($0) " " $0 }' | sort -rn | cut -d' ' -f2-
+}
+unmount_all() {
+  local m
+  for m in $(mounts_under "$1"); do
+    umount "$m" 2>/dev/null || umount -l "$m" 2>/dev/null || say "warning: cannot unmount $m"
+  done
+}
+# Deletes a root directory, never crossing into another file system and never while anything is
+# mounted inside it.
+remove_root() {
+  unmount_all "$1"
+  if [ -n "$(mounts_under "$1")" ]; then
+    say "error: $1 still has mounts inside; not deleting it"
+    exit 1
+  fi
+  rm -rf --one-file-system -- "$1"
+}
+
+mkdir -p "$CACHE" "$TARGET"
+# One run at a time: two would mount over each other in the same root.
+exec 9>"$CACHE/lock"
+flock -n 9 || { say "waiting for another run to release $CACHE/lock"; flock 9; }
+stale=$(mounts_under "$ROOT")
+if [ -n "$stale" ]; then
+  say "unmounting what a previous run left mounted in $ROOT"
+  unmount_all "$ROOT"
+fi
 
 mounts=()
-mnt() { mkdir -p "$ROOT$2"; mount $1 "$ROOT$2"; mounts+=("$ROOT$2"); }
-cleanup() { for ((i = ${#mounts[@]} - 1; i >= 0; i--)); do umount -l "${mounts[$i]}" || true; done; }
+mnt() { # mnt DEST mount-args...: mount inside the root and remember it
+  local dest=$ROOT$1
+  shift
+  mkdir -p "$dest"
+  mount "$@" "$dest"
+  mounts+=("$dest")
+}
+unmount_tracked() {
+  local i
+  for ((i = ${#mounts[@]} - 1; i >= 0; i--)); do
+    umount "${mounts[$i]}" 2>/dev/null || umount -l "${mounts[$i]}" 2>/dev/null || true
+  done
+  mounts=()
+}
+# Stops every process whose root directory is $1 (the suite's cargo and tests): their mounts
+# cannot go while they run.
+kill_inside() {
+  local p pids=()
+  for p in /proc/[0-9]*; do
+    [ "$(readlink "$p/root" 2>/dev/null)" = "$1" ] && pids+=("${p#/proc/}")
+  done
+  [ ${#pids[@]} -eq 0 ] && return
+  kill -TERM "${pids[@]}" 2>/dev/null || true
+  sleep 1
+  kill -KILL "${pids[@]}" 2>/dev/null || true
+}
+cleanup() {
+  kill_inside "$ROOT"
+  unmount_tracked
+  [ -d "$ROOT.partial" ] && [ -z "$(mounts_under "$ROOT.partial")" ] && rm -rf --one-file-system -- "$ROOT.partial"
+  true
+}
 trap cleanup EXIT
-mnt "-t proc proc" /proc
-mnt "--rbind /sys" /sys
-mnt "--rbind /dev" /dev
-mnt "--bind $HOME/.rustup" /root/.rustup
-mnt "--bind $HOME/.cargo" /root/.cargo
-mnt "--bind $REPO" /src
-cp /etc/resolv.conf "$ROOT/etc/resolv.conf"
+trap 'cleanup; exit 130' INT
+trap 'cleanup; exit 143' TERM
+trap 'cleanup; exit 129' HUP
 
-chroot "$ROOT" /usr/bin/env -i HOME=/root PATH=/root/.cargo/bin:/usr/bin:/bin TERM=dumb bash -euc '
-  if ! dpkg-query -W libembree-dev >/dev/null 2>&1; then
+# 1. The root: reuse it when its stamp matches, else build it in ROOT.partial and rename.
+#    A failure here (no network, a mirror down) is "could not test", exit 3, not a test failure.
+create_root() {
+  local real_root=$ROOT
+  [ -e "$ROOT" ] && remove_root "$ROOT"
+  [ -e "$ROOT.partial" ] && remove_root "$ROOT.partial"
+  command -v debootstrap >/dev/null || DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap >/dev/null || return 1
+  say "creating a Debian trixie root in $ROOT (debootstrap, about a minute)"
+  debootstrap --variant=minbase trixie "$ROOT.partial" "$MIRROR" >/dev/null || return 1
+  ROOT=$ROOT.partial
+  mnt /proc -t proc proc || return 1
+  mnt /dev --bind /dev || return 1
+  cp /etc/resolv.conf "$ROOT/etc/resolv.conf"
+  chroot "$ROOT" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin DEBIAN_FRONTEND=noninteractive bash -ec "
     apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-      libembree-dev libclang1-19 libclang-common-19-dev gcc libc6-dev >/dev/null
+    apt-get install -y -qq --no-install-recommends $PACKAGES >/dev/null
+  " || { ROOT=$real_root; return 1; }
+  local partial=$ROOT
+  ROOT=$real_root
+  unmount_tracked
+  [ -z "$(mounts_under "$partial")" ] || return 1
+  echo "$STAMP" >"$partial/.strahl-ready"
+  mv "$partial" "$ROOT"
+}
+if [ "$(cat "$ROOT/.strahl-ready" 2>/dev/null)" != "$STAMP" ]; then
+  start=$SECONDS
+  if ! create_root; then
+    cleanup
+    echo "Embree 4 was not tested: could not create the Debian trixie root (debootstrap or apt-get failed; see above)"
+    # CI sets STRAHL_EMBREE4_OPTIONAL=1: there an unreachable mirror is reported, not failed.
+    [ "${STRAHL_EMBREE4_OPTIONAL:-0}" = 1 ] && exit 0
+    exit 3
   fi
-  echo "Embree in the root: $(dpkg-query -W -f="\${Version}" libembree-dev)"
-  cd /src
-  export CARGO_TARGET_DIR=/root/target-embree4
-  cargo test --offline --locked --test embree
-  cargo test --offline --locked --lib -- embree::
-'
+  say "root ready in $((SECONDS - start)) s"
+fi
+
+# 2. Dependencies, on the host (the registry is not reachable from inside).
+(cd "$REPO" && cargo fetch --locked -q)
+
+# 3. The suite, inside.
+mnt /proc -t proc proc
+mnt /sys -t sysfs sysfs
+mnt /dev --bind /dev
+mnt "$HOME/.rustup" --bind -o ro "$HOME/.rustup"
+mnt "$HOME/.cargo" --bind "$HOME/.cargo"
+mnt /src --bind "$REPO"
+mnt /target --bind "$TARGET"
+[ -d "$SHARED" ] && mnt /shared --bind -o ro "$SHARED"
+# A read-only bind needs a remount to take effect on older kernels.
+mount -o remount,bind,ro "$ROOT$HOME/.rustup" 2>/dev/null || true
+
+embree=$(chroot "$ROOT" dpkg-query -W -f='${Version}' libembree-dev)
+say "Embree in the root: libembree-dev $embree"
+start=$SECONDS
+# In the background, waited for: bash runs a trap only after the foreground command ends, but
+# `wait` returns at once on a signal, so Ctrl-C or a kill cleans up now, not after the suite.
+set +e
+chroot "$ROOT" /usr/bin/env -i HOME="$HOME" PATH="$HOME/.cargo/bin:/usr/bin:/bin" TERM=dumb \
+  RUSTUP_HOME="$HOME/.rustup" CARGO_HOME="$HOME/.cargo" CARGO_TARGET_DIR=/target \
+  STRAHL_TEST_DATA=/shared/data/meshes STRAHL_EXPECT_EMBREE_MAJOR=4 \
+  bash -c 'cd /src && cargo test --offline --locked 2>&1' > >(tee "$TARGET/last-run.log") &
+wait $!
+status=$?
+wait 2>/dev/null || true  # let tee finish the log
+set -e
+passed=$(grep -Eo '[0-9]+ passed' "$TARGET/last-run.log" | awk '{ s += $1 } END { print s + 0 }')
+failed=$(grep -Eo '[0-9]+ failed' "$TARGET/last-run.log" | awk '{ s += $1 } END { print s + 0 }')
+if [ "$status" -ne 0 ]; then
+  say "FAILED against Embree $embree (exit $status, $passed passed, $failed failed, $((SECONDS - start)) s)"
+  exit "$status"
+fi
+say "the whole suite passed against Embree $embree in $((SECONDS - start)) s"
+echo "embree4: $passed passed, $failed failed"

@@ -5,6 +5,7 @@
 mod bench;
 mod crosscheck;
 mod info;
+mod progress;
 mod render;
 
 use std::path::Path;
@@ -32,6 +33,16 @@ enum Command {
     Crosscheck(crosscheck::CrosscheckArgs),
     /// Measure BVH build times and Mrays/s of Embree (single rays, packets) and the native BVH.
     Bench(bench::BenchArgs),
+}
+
+/// What `strahl --version` prints: strahl's version, then the Embree library it loaded (version,
+/// headers when they differ, ISA), or why no Embree device could be created.
+pub fn version_report() -> String {
+    let embree = match strahl::embree::Device::new() {
+        Ok(device) => device.describe(),
+        Err(e) => format!("Embree unavailable: {e}"),
+    };
+    format!("strahl {}\n{embree}", env!("CARGO_PKG_VERSION"))
 }
 
 /// Runs the parsed command.

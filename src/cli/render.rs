@@ -7,20 +7,23 @@
 //! Both backends go through the same [`integrator::render`]; the images differ only where the
 //! backends' hits differ (see `strahl crosscheck`).
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::progress::Progress;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use strahl::Accel;
 use strahl::bvh::Bvh;
 use strahl::embree::{BuildOptions, EmbreeAccel};
 use strahl::film::Film;
+use strahl::ids::ObjectIds;
 use strahl::integrator::{self, RayCounts};
 use strahl::io::MeshFormat;
 use strahl::io::atomic::directory_of;
+use strahl::io::exr::{Compression, ExrOptions, Layout};
+use strahl::io::metadata::RenderInfo;
+use strahl::passes::{MAX_CRYPTO_LEVELS, PassSet};
 use strahl::scene::Scene;
 use strahl::scene::file::image_problem;
 
@@ -56,6 +59,44 @@ pub struct RenderArgs {
     /// What finds the closest hits: Intel Embree, or strahl's own BVH.
     #[arg(long, value_enum, default_value_t = Backend::Embree)]
     backend: Backend,
+    /// The passes to write, comma-separated (overrides the scene's `[output] passes`):
+    /// `default`, `all`, or names from combined, depth, normal, albedo, emission, diffuse,
+    /// specular, reflection, transmission, background, position, object_index,
+    /// material_index, crypto_object, crypto_material.
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    passes: Option<Vec<String>>,
+    /// Render the background transparent: rays that escape give RGBA 0, alpha is coverage.
+    #[arg(long)]
+    transparent: bool,
+    /// Cryptomatte ranks per pixel (overrides the scene's `cryptomatte_levels`).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_CRYPTO_LEVELS as i64))]
+    cryptomatte_levels: Option<u32>,
+    /// Channel naming of the EXR: Blender's multilayer names, or Nuke's.
+    #[arg(long, value_enum, default_value_t = LayoutArg::Blender)]
+    exr_layout: LayoutArg,
+    /// Store colour passes as half floats (depth, normals, position, indices and Cryptomatte
+    /// stay float32).
+    #[arg(long)]
+    half: bool,
+    /// EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a.
+    #[arg(long, value_name = "C", default_value = "zip", value_parser = parse_compression)]
+    compression: Compression,
+}
+
+/// `--exr-layout`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LayoutArg {
+    /// `ViewLayer.Combined.R`, `ViewLayer.Depth.Z`, … (Blender's Image node lists the passes).
+    Blender,
+    /// `R G B A`, `Z`, `N.X`, … (Nuke's rgba, depth and layer.channel).
+    Nuke,
+}
+
+fn parse_compression(name: &str) -> Result<Compression, String> {
+    Compression::from_name(name).ok_or_else(|| {
+        let known: Vec<&str> = Compression::ALL.iter().map(|(_, n)| *n).collect();
+        format!("unknown compression '{name}' (known: {})", known.join(", "))
+    })
 }
 
 /// The ray-tracing backends `strahl render` can use.
@@ -112,6 +153,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("{}: with the command-line settings: {problem}", args.scene.display());
     }
     let image = scene.image;
+    if let Some(passes) = &args.passes {
+        scene.output.passes = PassSet::parse(passes).map_err(|m| anyhow::anyhow!("--passes: {m}"))?;
+    }
+    scene.output.transparent |= args.transparent;
+    scene.output.crypto_levels = args.cryptomatte_levels.unwrap_or(scene.output.crypto_levels);
 
     let threads = super::thread_count(args.threads.map(|t| t as usize));
     let pool = super::thread_pool(threads)?;
@@ -132,10 +178,33 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     };
 
-    strahl::io::exr::write(&film, &args.output, threads)?;
+    let ids = ObjectIds::new(&scene);
+    let options = ExrOptions {
+        layout: match args.exr_layout {
+            LayoutArg::Blender => Layout::Blender,
+            LayoutArg::Nuke => Layout::Nuke,
+        },
+        half: args.half,
+        compression: args.compression,
+        attributes: strahl::io::metadata::attributes(
+            &scene,
+            &RenderInfo {
+                scene_file: args.scene.display().to_string(),
+                backend: args.backend.name().to_string(),
+                render_seconds,
+            },
+        ),
+        object_names: ids.object_names.clone(),
+        material_names: scene.materials.iter().map(|m| m.name.clone()).collect(),
+    };
+    let write_start = Instant::now();
+    eprintln!("writing {} ...", args.output.display());
+    strahl::io::exr::write(&film, &options, &args.output, threads)?;
     if let Some(png) = &args.png {
+        eprintln!("writing {} ...", png.display());
         strahl::io::png::write(&film, args.exposure, png)?;
     }
+    let write_seconds = write_start.elapsed().as_secs_f64();
 
     println!(
         "{}: {} × {} pixels, {} spp, max depth {}, {threads} thread{}",
@@ -149,11 +218,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     println!("  backend: {}, BVH built in {:.1} ms", args.backend.name(), 1e3 * build_seconds);
     println!("  rays: {}", ray_summary(&rays));
     println!("  time: {render_seconds:.3} s rendering ({:.2} Mrays/s)", mrays_per_second(rays.total(), render_seconds));
-    let mut written = args.output.display().to_string();
-    if let Some(png) = &args.png {
-        written += &format!(", {}", png.display());
-    }
-    println!("  wrote {written}");
+    let mut written = vec![sized(&args.output)];
+    written.extend(args.png.as_deref().map(sized));
+    println!("  wrote {} in {write_seconds:.3} s", written.join(", "));
     Ok(())
 }
 
@@ -185,24 +252,20 @@ fn render<A: Accel>(
 ) -> anyhow::Result<Rendered> {
     let build_seconds = build_start.elapsed().as_secs_f64();
     let image = &scene.image;
-    let bar = progress_bar(image.width as u64 * image.height as u64);
+    let bar = Progress::new(image.width as u64 * image.height as u64);
     let render_start = Instant::now();
     let (film, rays) = pool
         .install(|| integrator::render(scene, accel, &|done| bar.inc(done)))
         .with_context(|| format!("{}: rendering failed", path.display()))?;
     let render_seconds = render_start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
+    bar.finish();
     Ok(Rendered { film, rays, build_seconds, render_seconds })
 }
 
-/// A progress bar over `pixels` on stderr, hidden when stderr is not a terminal.
-fn progress_bar(pixels: u64) -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let style = ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} (eta {eta})")
-        .unwrap_or_else(|_| ProgressStyle::default_bar());
-    ProgressBar::with_draw_target(Some(pixels), ProgressDrawTarget::stderr()).with_style(style)
+/// `path (12.3 MB)`: a file written and its size.
+fn sized(path: &Path) -> String {
+    let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    format!("{} ({:.1} MB)", path.display(), bytes as f64 / 1e6)
 }
 
 fn ray_summary(r: &RayCounts) -> String {

@@ -132,6 +132,50 @@ impl Device {
         unsafe { sys::rtcGetDeviceProperty(self.raw(), sys::RTC_DEVICE_PROPERTY_VERSION) as u32 }
     }
 
+    /// The library's version as `major.minor.patch`, e.g. `3.13.5`.
+    pub fn version_string(&self) -> String {
+        version_string(self.version())
+    }
+
+    /// The widest ray packet the library traces natively on this CPU: 16 means Embree runs
+    /// its AVX-512 kernels, 8 AVX/AVX2, 4 SSE (`RTC_DEVICE_PROPERTY_NATIVE_RAY{4,8,16}_SUPPORTED`;
+    /// Embree picks the best ISA it was built for that the CPU has).
+    pub fn native_packet_width(&self) -> u32 {
+        let supported = |property| {
+            // SAFETY: the device is live; the property is a plain integer query.
+            unsafe { sys::rtcGetDeviceProperty(self.raw(), property) != 0 }
+        };
+        if supported(sys::RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) {
+            16
+        } else if supported(sys::RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) {
+            8
+        } else if supported(sys::RTC_DEVICE_PROPERTY_NATIVE_RAY4_SUPPORTED) {
+            4
+        } else {
+            1
+        }
+    }
+
+    /// One line for reports and `strahl --version`: the library's version, the headers' when
+    /// they differ in the patch level, and the instruction set Embree traces with, e.g.
+    /// `Embree 3.13.5 (ISA AVX-512: native 16-wide packets)`.
+    pub fn describe(&self) -> String {
+        let isa = match self.native_packet_width() {
+            16 => "AVX-512",
+            8 if cpu_has_avx2() => "AVX2",
+            8 => "AVX",
+            4 => "SSE",
+            _ => "scalar",
+        };
+        let (library, headers) = (self.version(), Self::header_version());
+        let built = if library == headers { String::new() } else { format!(", headers {}", version_string(headers)) };
+        format!(
+            "Embree {}{built} (ISA {isa}: native {}-wide packets)",
+            version_string(library),
+            self.native_packet_width()
+        )
+    }
+
     /// `RTC_VERSION` of the headers the bindings were generated from.
     pub fn header_version() -> u32 {
         sys::RTC_VERSION
@@ -151,6 +195,14 @@ impl Device {
     pub(crate) fn raw(&self) -> sys::RTCDevice {
         self.inner.0
     }
+}
+
+/// Whether the CPU has AVX2 (to tell Embree's AVX and AVX2 kernels apart in [`Device::describe`]).
+fn cpu_has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// Asks the calling thread's SSE unit to flush denormal results to zero and treat denormal

@@ -1,65 +1,299 @@
-//! The rendered film as OpenEXR: float32 scan lines, ZIP compression (16 lines per block),
-//! one layer with these channels (EXR stores channels sorted by name):
+//! The rendered film as OpenEXR: one part (a single header, as Blender and Cycles write),
+//! scan lines in increasing order, every pass of the film as named channels.
 //!
-//! | channel | meaning |
-//! |---|---|
-//! | `R`, `G`, `B` | linear radiance, averaged over the pixel's samples |
-//! | `A` | fraction of the pixel's samples whose primary ray hit geometry |
-//! | `Z` | distance along the primary ray from the eye to the first hit; `+inf` where nothing is hit |
-//! | `N.X`, `N.Y`, `N.Z` | world-space shading normal at the first hit (0 where nothing is hit) |
-//! | `albedo.R`, `albedo.G`, `albedo.B` | diffuse albedo at the first hit (0 where nothing is hit) |
+//! **Channel names** ([`Layout`]). The default, `blender`, is Blender's multilayer naming, so
+//! Blender's Image node lists the passes by name (view layer `ViewLayer`):
+//!
+//! | pass | `blender` | `nuke` |
+//! |---|---|---|
+//! | combined | `ViewLayer.Combined.R/G/B/A` | `R`, `G`, `B`, `A` (Nuke's `rgba`) |
+//! | depth | `ViewLayer.Depth.Z` | `Z` (Nuke's `depth.Z`) |
+//! | normal | `ViewLayer.Normal.X/Y/Z` | `N.X/Y/Z` |
+//! | albedo | `ViewLayer.DiffCol.R/G/B` | `albedo.R/G/B` |
+//! | emission, diffuse, specular | `ViewLayer.Emit`, `.DiffDir`, `.GlossDir` `.R/G/B` | `emission`, `diffuse`, `specular` `.R/G/B` |
+//! | reflection, transmission, background | `ViewLayer.GlossInd`, `.TransInd`, `.Env` `.R/G/B` | `reflection`, `transmission`, `background` `.R/G/B` |
+//! | position | `ViewLayer.Position.X/Y/Z` | `P.X/Y/Z` |
+//! | object_index, material_index | `ViewLayer.IndexOB.X`, `ViewLayer.IndexMA.X` | `object_index.X`, `material_index.X` |
+//! | crypto_object | `ViewLayer.CryptoObject00.r/g/b/a`, `01`, … | `CryptoObject00.R/G/B/A`, … |
+//! | crypto_material | `ViewLayer.CryptoMaterial00.r/g/b/a`, … | `CryptoMaterial00.R/G/B/A`, … |
+//!
+//! The Cryptomatte passes are named `ViewLayer.CryptoObject` / `CryptoObject` (and material)
+//! in their `cryptomatte/<key>/name` attributes ([`crate::cryptomatte`]).
+//!
+//! **Sample types.** float32; with `half`, the colour passes (combined, albedo, the light
+//! passes) are half floats, while depth, normal, position, the indices and Cryptomatte stay
+//! float32 (Cryptomatte ids are float bit patterns and must not be rounded).
+//!
+//! **Compression** ([`Compression`]): ZIP over 16 lines by default; `none`, `rle`, `zips` (ZIP
+//! over single lines), `piz`, `pxr24` (lossy: float32 rounded to 24 bits), `b44`, `b44a`
+//! (lossy, half channels only): what the `exr` crate writes (it cannot write DWAA/DWAB).
 //!
 //! `Z` is `+inf` (not 0 or a large finite number) for rays that escape: that is the true
 //! distance to the first hit, it sorts behind every surface in depth compositing, and it
 //! cannot be mistaken for a real distance.
 //!
-//! The bytes are deterministic: blocks are written in increasing line order whatever the
-//! number of compression threads.
+//! **Streaming.** Blocks of 16 (or 1) lines are cut straight from the film's channels
+//! ([`Film::channels`]), compressed on `threads` threads and written in increasing line order:
+//! no per-channel copy of the frame is made, and the bytes are the same for any number of
+//! threads.
 
-use std::io::Cursor;
+use std::io::{Cursor, Seek, Write};
 use std::path::Path;
 
+use exr::block::BlockIndex;
 use exr::block::writer::{ParallelBlocksCompressor, SequentialBlocksCompressor};
-use exr::image::write::layers::{LayersWriter, WritableLayers};
-use exr::prelude::*;
+use exr::meta::attribute::{AttributeValue, ChannelDescription, IntegerBounds, SampleType, Text};
+use exr::meta::header::Header;
+use exr::prelude::{LineOrder, Vec2, f16};
 
 use super::atomic::{WriteError, write_atomically};
-use crate::film::Film;
+use crate::film::{ChannelView, Film};
+use crate::passes::Pass;
 
-/// The channel names written, in the order the docs list them.
-pub const CHANNELS: [&str; 11] = ["R", "G", "B", "A", "Z", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B"];
+/// How channels are named (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Layout {
+    /// Blender's multilayer names under the view layer `ViewLayer`.
+    #[default]
+    Blender,
+    /// Nuke's conventions: bare `R G B A Z`, then `layer.channel`.
+    Nuke,
+}
 
-/// Encodes `film` as an OpenEXR file in memory, compressing on `threads` threads.
-pub fn encode(film: &Film, threads: usize) -> std::result::Result<Vec<u8>, exr::error::Error> {
-    let (w, h) = (film.width as usize, film.height as usize);
-    let channel = |name: &str, sample: &dyn Fn(usize) -> f32| {
-        AnyChannel::new(name, FlatSamples::F32((0..w * h).map(sample).collect()))
+/// The compressions strahl writes (the `exr` crate's encoders).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Compression {
+    None,
+    Rle,
+    /// ZIP over single scan lines.
+    Zips,
+    /// ZIP over blocks of 16 scan lines.
+    #[default]
+    Zip,
+    Piz,
+    Pxr24,
+    B44,
+    B44a,
+}
+
+impl Compression {
+    /// Every compression with its command-line name.
+    pub const ALL: [(Compression, &'static str); 8] = [
+        (Compression::None, "none"),
+        (Compression::Rle, "rle"),
+        (Compression::Zips, "zips"),
+        (Compression::Zip, "zip"),
+        (Compression::Piz, "piz"),
+        (Compression::Pxr24, "pxr24"),
+        (Compression::B44, "b44"),
+        (Compression::B44a, "b44a"),
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        Compression::ALL.iter().find(|(c, _)| *c == self).map_or("zip", |(_, n)| n)
+    }
+
+    /// The compression called `name` ([`Compression::name`]).
+    pub fn from_name(name: &str) -> Option<Compression> {
+        Compression::ALL.iter().find(|(_, n)| *n == name).map(|(c, _)| *c)
+    }
+
+    fn to_exr(self) -> exr::compression::Compression {
+        use exr::compression::Compression as C;
+        match self {
+            Compression::None => C::Uncompressed,
+            Compression::Rle => C::RLE,
+            Compression::Zips => C::ZIP1,
+            Compression::Zip => C::ZIP16,
+            Compression::Piz => C::PIZ,
+            Compression::Pxr24 => C::PXR24,
+            Compression::B44 => C::B44,
+            Compression::B44a => C::B44A,
+        }
+    }
+}
+
+/// A header attribute strahl writes beyond the channels ([`crate::io::metadata`] makes them).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Attribute {
+    Text(String),
+    Int(i32),
+    Float(f32),
+    /// A 4×4 matrix, 16 floats in the order the file stores them.
+    Matrix([f32; 16]),
+}
+
+/// How to write the EXR: names, sample types, compression, header attributes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExrOptions {
+    pub layout: Layout,
+    /// Colour passes as half floats.
+    pub half: bool,
+    pub compression: Compression,
+    /// Extra header attributes, `(name, value)`, in addition to the Cryptomatte ones.
+    pub attributes: Vec<(String, Attribute)>,
+    /// Object and material names for the Cryptomatte manifests (object index order, then the
+    /// scene's material order). Needed only when the film holds Cryptomatte passes.
+    pub object_names: Vec<String>,
+    pub material_names: Vec<String>,
+}
+
+/// The view layer of the `blender` layout.
+pub const VIEW_LAYER: &str = "ViewLayer";
+
+/// The name of component `component` of `pass` in `layout` (see the module docs).
+pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
+    const RGBA: [&str; 4] = ["R", "G", "B", "A"];
+    const XYZ: [&str; 3] = ["X", "Y", "Z"];
+    let (blender, nuke, names): (&str, &str, &[&str]) = match pass {
+        Pass::Combined => ("Combined", "", &RGBA),
+        Pass::Depth => ("Depth", "", &["Z"]),
+        Pass::Normal => ("Normal", "N", &XYZ),
+        Pass::Albedo => ("DiffCol", "albedo", &RGBA),
+        Pass::Emission => ("Emit", "emission", &RGBA),
+        Pass::Diffuse => ("DiffDir", "diffuse", &RGBA),
+        Pass::Specular => ("GlossDir", "specular", &RGBA),
+        Pass::Reflection => ("GlossInd", "reflection", &RGBA),
+        Pass::Transmission => ("TransInd", "transmission", &RGBA),
+        Pass::Background => ("Env", "background", &RGBA),
+        Pass::Position => ("Position", "P", &XYZ),
+        Pass::ObjectIndex => ("IndexOB", "object_index", &["X"]),
+        Pass::MaterialIndex => ("IndexMA", "material_index", &["X"]),
+        Pass::CryptoObject | Pass::CryptoMaterial => {
+            let layer = format!("{}{:02}", crypto_type(pass), component / 4);
+            return match layout {
+                Layout::Blender => format!("{VIEW_LAYER}.{layer}.{}", ["r", "g", "b", "a"][component % 4]),
+                Layout::Nuke => format!("{layer}.{}", RGBA[component % 4]),
+            };
+        }
     };
-    let channels = SmallVec::from_vec(vec![
-        channel("R", &|i| film.rgba[i][0]),
-        channel("G", &|i| film.rgba[i][1]),
-        channel("B", &|i| film.rgba[i][2]),
-        channel("A", &|i| film.rgba[i][3]),
-        channel("Z", &|i| film.depth[i]),
-        channel("N.X", &|i| film.normal[i].x),
-        channel("N.Y", &|i| film.normal[i].y),
-        channel("N.Z", &|i| film.normal[i].z),
-        channel("albedo.R", &|i| film.albedo[i].x),
-        channel("albedo.G", &|i| film.albedo[i].y),
-        channel("albedo.B", &|i| film.albedo[i].z),
-    ]);
-    let encoding =
-        Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
-    let image =
-        Image::from_layer(Layer::new((w, h), LayerAttributes::default(), encoding, AnyChannels::sort(channels)));
+    let channel = names[component];
+    match layout {
+        Layout::Blender => format!("{VIEW_LAYER}.{blender}.{channel}"),
+        Layout::Nuke if nuke.is_empty() => channel.to_string(),
+        Layout::Nuke => format!("{nuke}.{channel}"),
+    }
+}
 
-    // `image.write().to_buffered()` compresses on a pool of its own with a thread per core;
-    // the same steps with a pool of `threads` threads keep to the command's `--threads`.
-    let headers = image.layer_data.infer_headers(&image.attributes);
-    let layers = image.layer_data.create_writer(&headers);
-    let mut bytes = Cursor::new(Vec::new());
-    exr::block::write(&mut bytes, headers, true, |meta, chunk_writer| {
-        let blocks = meta.collect_ordered_block_data(|index| layers.extract_uncompressed_block(&meta.headers, index));
+/// `CryptoObject` or `CryptoMaterial`.
+fn crypto_type(pass: Pass) -> &'static str {
+    if pass == Pass::CryptoMaterial { "CryptoMaterial" } else { "CryptoObject" }
+}
+
+/// The Cryptomatte pass name of `pass` in `layout` (`ViewLayer.CryptoObject`, `CryptoObject`).
+pub fn crypto_name(layout: Layout, pass: Pass) -> String {
+    match layout {
+        Layout::Blender => format!("{VIEW_LAYER}.{}", crypto_type(pass)),
+        Layout::Nuke => crypto_type(pass).to_string(),
+    }
+}
+
+/// A channel of the file: its name, sample type and where its values come from.
+struct Channel<'a> {
+    name: String,
+    half: bool,
+    view: ChannelView<'a>,
+}
+
+/// The film's channels as the file lists them: named, typed, sorted by name (EXR's order).
+fn file_channels<'a>(film: &'a Film, options: &ExrOptions) -> Vec<Channel<'a>> {
+    let mut channels: Vec<Channel> = film
+        .channels()
+        .into_iter()
+        .map(|view| Channel {
+            name: channel_name(options.layout, view.pass, view.component),
+            half: options.half && view.pass.is_colour(),
+            view,
+        })
+        .collect();
+    channels.sort_by(|a, b| a.name.as_bytes().cmp(b.name.as_bytes()));
+    channels
+}
+
+fn text(value: &str, what: &str) -> exr::error::Result<Text> {
+    Text::new_or_none(value).ok_or_else(|| exr::error::Error::Invalid(format!("{what} is not Latin-1 text").into()))
+}
+
+/// The file's header.
+fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error::Result<Header> {
+    let descriptions = channels
+        .iter()
+        .map(|c| {
+            let sample_type = if c.half { SampleType::F16 } else { SampleType::F32 };
+            Ok(ChannelDescription::new(text(&c.name, "a channel name")?, sample_type, false))
+        })
+        .collect::<exr::error::Result<_>>()?;
+    let size = Vec2(film.width as usize, film.height as usize);
+    let mut header = Header::new(text("", "a layer name")?, size, descriptions).with_encoding(
+        options.compression.to_exr(),
+        exr::meta::BlockDescription::ScanLines,
+        LineOrder::Increasing,
+    );
+    header.own_attributes.layer_name = None;
+    header.shared_attributes.display_window = IntegerBounds::new((0, 0), size);
+    let own = &mut header.own_attributes;
+    for (name, value) in &options.attributes {
+        // The standard attributes the `exr` crate keeps in fields of its own.
+        match (name.as_str(), value) {
+            ("software", Attribute::Text(s)) => own.software_name = Some(text(s, name)?),
+            ("capDate", Attribute::Text(s)) => own.capture_date = Some(text(s, name)?),
+            ("utcOffset", Attribute::Float(f)) => own.utc_offset = Some(*f),
+            ("worldToCamera", Attribute::Matrix(m)) => own.world_to_camera = Some(*m),
+            ("worldToNDC", Attribute::Matrix(m)) => own.world_to_normalized_device = Some(*m),
+            _ => {}
+        }
+        if matches!(name.as_str(), "software" | "capDate" | "utcOffset" | "worldToCamera" | "worldToNDC") {
+            continue;
+        }
+        let value = match value {
+            Attribute::Text(s) => AttributeValue::Text(text(s, name)?),
+            Attribute::Int(i) => AttributeValue::I32(*i),
+            Attribute::Float(f) => AttributeValue::F32(*f),
+            Attribute::Matrix(m) => AttributeValue::Matrix4x4(*m),
+        };
+        own.other.insert(text(name, "an attribute name")?, value);
+    }
+    for pass in film.passes().into_iter().filter(|p| p.is_crypto()) {
+        let names = if pass == Pass::CryptoObject { &options.object_names } else { &options.material_names };
+        for (name, value) in crate::cryptomatte::attributes(&crypto_name(options.layout, pass), names) {
+            own.other.insert(text(&name, "an attribute name")?, AttributeValue::Text(text(&value, &name)?));
+        }
+    }
+    Ok(header)
+}
+
+/// The uncompressed bytes of the block `index`: line after line, in each line every channel's
+/// samples (in the file's channel order), little-endian.
+fn block_bytes(film: &Film, channels: &[Channel], index: BlockIndex) -> Vec<u8> {
+    let (x0, w) = (index.pixel_position.0, index.pixel_size.0);
+    let bytes_per_pixel: usize = channels.iter().map(|c| if c.half { 2 } else { 4 }).sum();
+    let mut out = Vec::with_capacity(bytes_per_pixel * w * index.pixel_size.1);
+    for y in index.pixel_position.1..index.pixel_position.1 + index.pixel_size.1 {
+        let row = y * film.width as usize;
+        for c in channels {
+            let pixels = row + x0..row + x0 + w;
+            if c.half {
+                out.extend(pixels.flat_map(|i| f16::from_f32(c.view.get(i)).to_le_bytes()));
+            } else {
+                out.extend(pixels.flat_map(|i| c.view.get(i).to_le_bytes()));
+            }
+        }
+    }
+    out
+}
+
+/// Encodes `film` into `out`, compressing on `threads` threads.
+pub fn encode_to<W: Write + Seek>(
+    film: &Film,
+    options: &ExrOptions,
+    threads: usize,
+    out: W,
+) -> std::result::Result<(), exr::error::Error> {
+    let channels = file_channels(film, options);
+    let header = header(film, &channels, options)?;
+    exr::block::write(out, exr::prelude::SmallVec::from_vec(vec![header]), true, |meta, chunk_writer| {
+        let blocks = meta.collect_ordered_block_data(|index| block_bytes(film, &channels, index));
         if threads > 1 {
             let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
             if let Some(mut parallel) = ParallelBlocksCompressor::new_with_thread_pool(&meta, chunk_writer, pool) {
@@ -74,13 +308,56 @@ pub fn encode(film: &Film, threads: usize) -> std::result::Result<Vec<u8>, exr::
             sequential.compress_block(index, block)?;
         }
         Ok(())
-    })?;
-    Ok(bytes.into_inner())
+    })
+}
+
+/// Encodes `film` as an OpenEXR file in memory, compressing on `threads` threads.
+pub fn encode(film: &Film, options: &ExrOptions, threads: usize) -> std::result::Result<Vec<u8>, exr::error::Error> {
+    let mut bytes = Cursor::new(Vec::new());
+    encode_to(film, options, threads, &mut bytes)?;
+    let mut bytes = bytes.into_inner();
+    sort_header_attributes(&mut bytes);
+    Ok(bytes)
+}
+
+/// Puts the attributes of a single-part header in name order, in place. The `exr` crate keeps
+/// non-standard attributes in a `HashMap` and writes them in its (random) iteration order;
+/// sorting them makes the bytes the same on every run. The header keeps its length, so the
+/// offset table after it stays valid. Leaves anything it cannot parse untouched.
+fn sort_header_attributes(bytes: &mut [u8]) {
+    let Some(spans) = header_attribute_spans(bytes) else { return };
+    let (start, end) = (spans[0].start, spans[spans.len() - 1].end);
+    let mut sorted: Vec<&std::ops::Range<usize>> = spans.iter().collect();
+    sorted.sort_by(|a, b| {
+        let name = |r: &std::ops::Range<usize>| bytes[r.clone()].split(|&c| c == 0).next().map(<[u8]>::to_vec);
+        name(a).cmp(&name(b))
+    });
+    let reordered: Vec<u8> = sorted.iter().flat_map(|r| bytes[(*r).clone()].iter().copied()).collect();
+    bytes[start..end].copy_from_slice(&reordered);
+}
+
+/// The byte ranges of the attributes of a single-part header (name, type, size, value each).
+fn header_attribute_spans(bytes: &[u8]) -> Option<Vec<std::ops::Range<usize>>> {
+    let mut spans = Vec::new();
+    let mut at = 8; // magic number and version
+    loop {
+        if *bytes.get(at)? == 0 {
+            return (!spans.is_empty()).then_some(spans);
+        }
+        let start = at;
+        for _ in 0..2 {
+            at += bytes.get(at..)?.iter().position(|&c| c == 0)? + 1; // name, then type
+        }
+        let size = i32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?);
+        at += 4 + usize::try_from(size).ok()?;
+        spans.push(start..at);
+    }
 }
 
 /// Writes `film` to `path` as OpenEXR, atomically, compressing on `threads` threads.
-pub fn write(film: &Film, path: &Path, threads: usize) -> std::result::Result<(), WriteError> {
-    let bytes = encode(film, threads).map_err(|e| WriteError::new(path, format!("cannot encode OpenEXR: {e}")))?;
+pub fn write(film: &Film, options: &ExrOptions, path: &Path, threads: usize) -> std::result::Result<(), WriteError> {
+    let bytes =
+        encode(film, options, threads).map_err(|e| WriteError::new(path, format!("cannot encode OpenEXR: {e}")))?;
     write_atomically(path, &bytes)
 }
 
@@ -88,10 +365,14 @@ pub fn write(film: &Film, path: &Path, threads: usize) -> std::result::Result<()
 mod tests {
     use super::*;
     use crate::math::Vec3;
+    use crate::passes::{OutputSpec, PassSet};
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
 
-    /// A film whose every channel differs per pixel, with misses (+inf depth) on row 0.
+    /// A film of every pass whose every channel differs per pixel, with misses (+inf depth) on
+    /// row 0.
     fn film(w: u32, h: u32) -> Film {
-        let mut f = Film::new(w, h);
+        let output = OutputSpec { passes: PassSet::all(), ..Default::default() };
+        let mut f = Film::with_output(w, h, &output);
         for y in 0..h {
             for x in 0..w {
                 let i = f.index(x, y);
@@ -100,6 +381,11 @@ mod tests {
                 f.depth[i] = if y == 0 { f32::INFINITY } else { 1.0 + v / 7.0 };
                 f.normal[i] = if y == 0 { Vec3::ZERO } else { Vec3::new(x as f32, -(y as f32), 0.5).normalize() };
                 f.albedo[i] = Vec3::new(0.1, 0.2, 0.3) * (x % 3) as f32;
+            }
+        }
+        for (k, aov) in f.aovs.iter_mut().enumerate() {
+            for (j, v) in aov.data.iter_mut().enumerate() {
+                *v = (k * 100000 + j) as f32 * 0.5;
             }
         }
         f
@@ -117,49 +403,57 @@ mod tests {
     }
 
     #[test]
-    fn every_channel_reads_back_exactly() {
+    fn every_channel_reads_back_exactly_in_both_layouts() {
         let f = film(37, 40); // 40 lines: three ZIP blocks, the last one short
-        let image = read(&encode(&f, 1).unwrap());
-        assert_eq!(image.layer_data.len(), 1);
-        let layer = &image.layer_data[0];
-        assert_eq!(layer.size, exr::math::Vec2(37, 40));
-        assert_eq!(layer.encoding.compression, Compression::ZIP16);
-        let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
-        let mut expected: Vec<&str> = CHANNELS.to_vec();
-        expected.sort();
-        assert_eq!(names, expected);
-        let get = |name: &str| -> Vec<f32> {
-            let c = layer.channel_data.list.iter().find(|c| c.name == *name).unwrap();
-            match &c.sample_data {
-                FlatSamples::F32(v) => v.clone(),
-                other => panic!("{name} is not f32: {other:?}"),
+        for layout in [Layout::Blender, Layout::Nuke] {
+            let options = ExrOptions { layout, ..Default::default() };
+            let image = read(&encode(&f, &options, 1).unwrap());
+            assert_eq!(image.layer_data.len(), 1);
+            let layer = &image.layer_data[0];
+            assert_eq!(layer.size, Vec2(37, 40));
+            assert_eq!(layer.encoding.compression, exr::compression::Compression::ZIP16);
+            let views = f.channels();
+            assert_eq!(layer.channel_data.list.len(), views.len());
+            for view in views {
+                let name = channel_name(layout, view.pass, view.component);
+                let c = layer.channel_data.list.iter().find(|c| c.name.to_string() == name).expect(&name);
+                let FlatSamples::F32(got) = &c.sample_data else { panic!("{name} is not f32") };
+                let want: Vec<f32> = (0..37 * 40).map(|i| view.get(i)).collect();
+                assert!(got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "channel {name}");
             }
-        };
-        let n = f.rgba.len();
-        let columns: [(&str, Vec<f32>); 11] = [
-            ("R", (0..n).map(|i| f.rgba[i][0]).collect()),
-            ("G", (0..n).map(|i| f.rgba[i][1]).collect()),
-            ("B", (0..n).map(|i| f.rgba[i][2]).collect()),
-            ("A", (0..n).map(|i| f.rgba[i][3]).collect()),
-            ("Z", f.depth.clone()),
-            ("N.X", f.normal.iter().map(|v| v.x).collect()),
-            ("N.Y", f.normal.iter().map(|v| v.y).collect()),
-            ("N.Z", f.normal.iter().map(|v| v.z).collect()),
-            ("albedo.R", f.albedo.iter().map(|v| v.x).collect()),
-            ("albedo.G", f.albedo.iter().map(|v| v.y).collect()),
-            ("albedo.B", f.albedo.iter().map(|v| v.z).collect()),
-        ];
-        for (name, want) in columns {
-            assert_eq!(get(name), want, "channel {name}");
         }
-        assert_eq!(get("Z")[5], f32::INFINITY);
+    }
+
+    #[test]
+    fn half_makes_colour_passes_half_and_keeps_the_rest_float() {
+        let f = film(8, 5);
+        let image = read(&encode(&f, &ExrOptions { half: true, ..Default::default() }, 1).unwrap());
+        for c in &image.layer_data[0].channel_data.list {
+            let is_half = matches!(c.sample_data, FlatSamples::F16(_));
+            let colour = ["Combined", "DiffCol", "Emit", "DiffDir", "GlossDir", "GlossInd", "TransInd", "Env"]
+                .iter()
+                .any(|p| c.name.to_string().starts_with(&format!("{VIEW_LAYER}.{p}.")));
+            assert_eq!(is_half, colour, "{}", c.name);
+        }
+    }
+
+    #[test]
+    fn names_follow_the_layouts() {
+        assert_eq!(channel_name(Layout::Blender, Pass::Combined, 3), "ViewLayer.Combined.A");
+        assert_eq!(channel_name(Layout::Blender, Pass::Depth, 0), "ViewLayer.Depth.Z");
+        assert_eq!(channel_name(Layout::Blender, Pass::CryptoObject, 6), "ViewLayer.CryptoObject01.b");
+        assert_eq!(channel_name(Layout::Nuke, Pass::Combined, 0), "R");
+        assert_eq!(channel_name(Layout::Nuke, Pass::Depth, 0), "Z");
+        assert_eq!(channel_name(Layout::Nuke, Pass::Normal, 1), "N.Y");
+        assert_eq!(channel_name(Layout::Nuke, Pass::CryptoMaterial, 4), "CryptoMaterial01.R");
     }
 
     #[test]
     fn same_bytes_on_any_number_of_threads() {
         let f = film(64, 100);
-        let one = encode(&f, 1).unwrap();
-        assert_eq!(encode(&f, 2).unwrap(), one);
-        assert_eq!(encode(&f, 3).unwrap(), one);
+        let options = ExrOptions::default();
+        let one = encode(&f, &options, 1).unwrap();
+        assert_eq!(encode(&f, &options, 2).unwrap(), one);
+        assert_eq!(encode(&f, &options, 3).unwrap(), one);
     }
 }

@@ -4,6 +4,7 @@
 pub mod atomic;
 pub mod exr;
 pub mod mesh;
+pub mod metadata;
 pub mod obj;
 pub mod ply;
 pub mod png;

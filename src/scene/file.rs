@@ -26,6 +26,7 @@ use super::{CameraSpec, ImageSpec, Scene};
 use crate::light::Light;
 use crate::material::{Material, Texture};
 use crate::math::Vec3;
+use crate::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
 
 /// Most spheres one `random_spheres` object may make (a typo should not exhaust memory).
 pub const MAX_RANDOM_SPHERES: u64 = 10_000_000;
@@ -170,6 +171,35 @@ struct SceneFile {
     lights: Vec<Spanned<LightFile>>,
     #[serde(default)]
     objects: Vec<Spanned<ObjectFile>>,
+    output: Option<Spanned<OutputFile>>,
+}
+
+/// `[output]`: passes, alpha, Cryptomatte levels (see [`crate::passes`]).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OutputFile {
+    passes: Option<Spanned<Vec<String>>>,
+    transparent: Option<bool>,
+    cryptomatte_levels: Option<Spanned<u32>>,
+}
+
+impl OutputFile {
+    fn to_spec(&self) -> Result<OutputSpec, Problem> {
+        let d = OutputSpec::default();
+        let passes = match &self.passes {
+            Some(p) => PassSet::parse(p.get_ref()).map_err(|m| at(p.span(), format!("output: {m}")))?,
+            None => d.passes,
+        };
+        let crypto_levels = match &self.cryptomatte_levels {
+            Some(l) if !(1..=MAX_CRYPTO_LEVELS).contains(l.get_ref()) => {
+                let message = format!("output: cryptomatte_levels {} must lie in 1..={MAX_CRYPTO_LEVELS}", l.get_ref());
+                return Err(at(l.span(), message));
+            }
+            Some(l) => *l.get_ref(),
+            None => d.crypto_levels,
+        };
+        Ok(OutputSpec { passes, transparent: self.transparent.unwrap_or(d.transparent), crypto_levels })
+    }
 }
 
 #[derive(Deserialize)]
@@ -347,7 +377,8 @@ impl SceneFile {
             Some(image) => image.get_ref().to_spec(&image.span())?,
             None => ImageSpec::default(),
         };
-        let mut scene = Scene { camera, image, ..Default::default() };
+        let output = self.output.as_ref().map_or(Ok(OutputSpec::default()), |o| o.get_ref().to_spec())?;
+        let mut scene = Scene { camera, image, output, ..Default::default() };
         let mut material_ids = BTreeMap::new();
         for (i, (name, m)) in self.materials.iter().enumerate() {
             let material = m.get_ref().to_material(name).map_err(|p| prefix(p, &format!("material '{name}'")))?;

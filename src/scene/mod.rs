@@ -7,6 +7,7 @@
 //! geometry came from.
 
 pub mod file;
+pub mod hash;
 pub mod mesh;
 pub mod procedural;
 pub mod transform;
@@ -89,6 +90,21 @@ pub struct Scene {
     pub meshes: Vec<Mesh>,
     pub spheres: Vec<Sphere>,
     pub planes: Vec<Plane>,
+    /// The names objects go by in Cryptomatte and the object index ([`ObjectNames`]).
+    pub names: ObjectNames,
+    /// Passes, alpha and Cryptomatte levels (the `[output]` table).
+    pub output: crate::passes::OutputSpec,
+}
+
+/// The object names of a scene's primitives, filled by the scene loader: `meshes[i]` names
+/// `Scene::meshes[i]`, and so on. A primitive beyond the end of its list goes by the mesh's own
+/// `name`, `sphere N` or `plane N`. Several primitives may share a name (the spheres of one
+/// `random_spheres` object, the groups of a mesh file are `object/group`): they are one object.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ObjectNames {
+    pub meshes: Vec<String>,
+    pub spheres: Vec<String>,
+    pub planes: Vec<String>,
 }
 
 impl Scene {
@@ -110,6 +126,21 @@ impl Scene {
             id if id == m => GeomKind::Spheres,
             _ => GeomKind::Planes,
         }
+    }
+
+    /// The object name of mesh `i` (see [`ObjectNames`]).
+    pub fn mesh_name(&self, i: usize) -> &str {
+        self.names.meshes.get(i).unwrap_or(&self.meshes[i].name)
+    }
+
+    /// The object name of sphere `i` (see [`ObjectNames`]).
+    pub fn sphere_name(&self, i: usize) -> String {
+        self.names.spheres.get(i).cloned().unwrap_or_else(|| format!("sphere {i}"))
+    }
+
+    /// The object name of plane `i` (see [`ObjectNames`]).
+    pub fn plane_name(&self, i: usize) -> String {
+        self.names.planes.get(i).cloned().unwrap_or_else(|| format!("plane {i}"))
     }
 
     /// Total triangle count over all meshes.

@@ -223,6 +223,7 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
         meshes: vec![ball],
         spheres,
         planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0)],
+        ..Default::default()
     }
 }
 

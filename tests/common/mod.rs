@@ -171,9 +171,14 @@ pub fn channel<'a>(channels: &'a [(String, Vec<f32>)], name: &str) -> &'a [f32] 
     &channels.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no channel {name}")).1
 }
 
-/// Runs the `strahl` binary with `args`.
+/// Runs the `strahl` binary with `args`, with `SOURCE_DATE_EPOCH` set so that its EXRs are
+/// the same bytes on every run (no date or render time in the header).
 pub fn strahl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_strahl")).args(args).output().expect("strahl runs")
+    Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(args)
+        .env("SOURCE_DATE_EPOCH", "1700000000")
+        .output()
+        .expect("strahl runs")
 }
 
 pub fn text(bytes: &[u8]) -> String {

@@ -191,6 +191,28 @@ impl ObjectSummary {
     }
 }
 
+/// Names what an object added to `scene` past the counts `before` in [`Scene::names`]: a
+/// named object's primitives take its name (`name/group` for the several meshes of one file),
+/// an unnamed object's meshes keep their own names and its spheres and planes are `object N`.
+fn name_objects(scene: &mut Scene, before: (usize, usize, usize), name: Option<&str>, index: usize) {
+    let (meshes, spheres, planes) = before;
+    // Every object is named as it is added, so the lists already end at `before`.
+    scene.names.meshes.truncate(meshes);
+    scene.names.spheres.truncate(spheres);
+    scene.names.planes.truncate(planes);
+    let own = name.map_or_else(|| format!("object {index}"), str::to_string);
+    let several = scene.meshes.len() - meshes > 1;
+    for m in &scene.meshes[meshes..] {
+        scene.names.meshes.push(match name {
+            Some(n) if several => format!("{n}/{}", m.name),
+            Some(n) => n.to_string(),
+            None => m.name.clone(),
+        });
+    }
+    scene.names.spheres.extend(std::iter::repeat_n(own.clone(), scene.spheres.len() - spheres));
+    scene.names.planes.extend(std::iter::repeat_n(own, scene.planes.len() - planes));
+}
+
 impl ObjectFile {
     /// How errors name this object: `object 3 (sphere)` or `object 'ball' (sphere)`.
     pub(super) fn label(&self, index: usize) -> String {
@@ -210,6 +232,7 @@ impl ObjectFile {
         let before = (scene.meshes.len(), scene.spheres.len(), scene.planes.len());
         let report = self.add_geometry(scene, ctx)?;
         let name = self.name.as_ref().map(|n| n.get_ref().clone());
+        name_objects(scene, before, name.as_deref(), ctx.index);
         let summary = ObjectSummary::of(scene, before, name, self.kind.get_ref().name(), &report);
         let span = self.path.as_ref().map_or_else(|| ctx.span.clone(), |p| p.span());
         Ok((summary, report.warnings.into_iter().map(|w| at(span.clone(), w)).collect()))

@@ -1,0 +1,179 @@
+//! The header attributes strahl writes into its EXRs, beyond the channels and Cryptomatte.
+//!
+//! | attribute | type | value |
+//! |---|---|---|
+//! | `software` | string | `strahl VERSION` (OpenEXR standard attribute) |
+//! | `capDate` | string | the date the render finished, `YYYY:MM:DD hh:mm:ss`, UTC (standard) |
+//! | `utcOffset` | float | 0: `capDate` is UTC (standard) |
+//! | `Date` | string | the same date as Blender writes it, `YYYY/MM/DD hh:mm:ss` |
+//! | `renderTimeSeconds` | float | wall time of rendering, seconds (as pbrt-v4 writes it) |
+//! | `RenderTime` | string | the same as Blender writes it, `MM:SS.ss` |
+//! | `samplesPerPixel` | int | samples per pixel (as pbrt-v4) |
+//! | `strahl/maxDepth` | int | longest chain of reflected/refracted rays |
+//! | `strahl/backend` | string | `embree` or `native` |
+//! | `strahl/scene` | string | the scene file as given on the command line |
+//! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
+//! | `strahl/transparent` | int | 1 for a transparent render (alpha = coverage), else 0 |
+//! | `worldToCamera` | m44f | world → camera space (below) |
+//! | `worldToNDC` | m44f | world → normalised device coordinates (below) |
+//!
+//! `screenWindowCenter = (0, 0)`, `screenWindowWidth = 1` and `pixelAspectRatio = 1` (square
+//! pixels) are always written, as OpenEXR requires.
+//!
+//! **The camera matrices follow OpenEXR's definition** (ImfStandardAttributes.h): Imath
+//! matrices for row vectors, `p' = [x y z 1] · M`, stored row by row, so the translation is in
+//! elements 12–14. Camera space is left-handed: origin at the eye, `+x` right and `+y` up in
+//! the image, `+z` along the view direction (RenderMan's and pbrt-v4's camera space): with the
+//! lecture's basis, `x = u·(p−e)`, `y = v·(p−e)`, `z = −w·(p−e)`. NDC is `(0, 0)` at the
+//! display window's top-left corner and `(1, 1)` at its bottom-right, `x` right, `y` down:
+//! `[X Y Z W] = [p 1] · worldToNDC`, then `(X/W, Y/W)` (Z is discarded). pbrt-v4 writes the
+//! same spaces but copies its own column-vector matrices element by element, so its files hold
+//! the transpose of these: a reader of both must transpose pbrt-v4's.
+//!
+//! **Reproducible bytes.** The date and render times are the only attributes that change
+//! from one run to the next. When the environment variable `SOURCE_DATE_EPOCH` (the
+//! reproducible-builds convention: seconds since 1970) is set, the date is that time and the
+//! render times are left out, so the same scene gives the same bytes on every run.
+
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use glam::DVec3;
+
+use super::exr::Attribute;
+use crate::camera::Camera;
+use crate::scene::Scene;
+
+/// What the header records about one render beyond the scene itself.
+#[derive(Clone, Debug, Default)]
+pub struct RenderInfo {
+    /// The scene file as given.
+    pub scene_file: String,
+    /// `embree` or `native`.
+    pub backend: String,
+    /// Wall time of rendering.
+    pub render_seconds: f64,
+}
+
+/// The attributes of the module docs for `scene`, rendered as `info` says.
+pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> {
+    let text = |s: &str| Attribute::Text(s.to_string());
+    let fixed_date = std::env::var("SOURCE_DATE_EPOCH").ok().and_then(|s| s.trim().parse::<u64>().ok());
+    let seconds = fixed_date.unwrap_or_else(|| SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()));
+    let (y, mo, d, h, mi, s) = civil_utc(seconds);
+    let mut out = vec![
+        ("software".into(), text(&format!("strahl {}", env!("CARGO_PKG_VERSION")))),
+        ("capDate".into(), text(&format!("{y:04}:{mo:02}:{d:02} {h:02}:{mi:02}:{s:02}"))),
+        ("utcOffset".into(), Attribute::Float(0.0)),
+        ("Date".into(), text(&format!("{y:04}/{mo:02}/{d:02} {h:02}:{mi:02}:{s:02}"))),
+        ("samplesPerPixel".into(), Attribute::Int(scene.image.spp as i32)),
+        ("strahl/maxDepth".into(), Attribute::Int(scene.image.max_depth as i32)),
+        ("strahl/backend".into(), text(&info.backend)),
+        ("strahl/scene".into(), text(&info.scene_file)),
+        ("strahl/sceneHash".into(), text(&crate::scene::hash::scene_hash_hex(scene))),
+        ("strahl/transparent".into(), Attribute::Int(scene.output.transparent as i32)),
+    ];
+    if fixed_date.is_none() {
+        let t = info.render_seconds;
+        out.push(("renderTimeSeconds".into(), Attribute::Float(t as f32)));
+        out.push(("RenderTime".into(), text(&format!("{:02}:{:05.2}", (t / 60.0).floor(), t % 60.0))));
+    }
+    if let Ok(camera) = Camera::new(&scene.camera, scene.image.width, scene.image.height) {
+        let (to_camera, to_ndc) = camera_matrices(&camera);
+        out.push(("worldToCamera".into(), Attribute::Matrix(to_camera)));
+        out.push(("worldToNDC".into(), Attribute::Matrix(to_ndc)));
+    }
+    out
+}
+
+/// `worldToCamera` and `worldToNDC` of `camera` as the module docs define them, row-major
+/// Imath matrices for row vectors.
+pub fn camera_matrices(camera: &Camera) -> ([f32; 16], [f32; 16]) {
+    let (u, v, w) = camera.basis();
+    let (u, v, w, e) = (u.as_dvec3(), v.as_dvec3(), w.as_dvec3(), camera.eye().as_dvec3());
+    // Columns of the row-vector matrix: camera x, y, z as linear functions of [p 1].
+    let column = |axis: DVec3| [axis.x, axis.y, axis.z, -axis.dot(e)];
+    let (cx, cy, cz) = (column(u), column(v), column(-w));
+    let (l, r, b, t) = camera.edges();
+    // NDC before the division by W = z: X = (x − l·z)/(r − l), Y = (y − t·z)/(b − t), Z = 1.
+    let (a, bx) = (1.0 / (r - l), -l / (r - l));
+    let (c, by) = (1.0 / (b - t), -t / (b - t));
+    let mut to_camera = [0f32; 16];
+    let mut to_ndc = [0f32; 16];
+    for i in 0..4 {
+        to_camera[4 * i] = cx[i] as f32;
+        to_camera[4 * i + 1] = cy[i] as f32;
+        to_camera[4 * i + 2] = cz[i] as f32;
+        to_camera[4 * i + 3] = if i == 3 { 1.0 } else { 0.0 };
+        to_ndc[4 * i] = (a * cx[i] + bx * cz[i]) as f32;
+        to_ndc[4 * i + 1] = (c * cy[i] + by * cz[i]) as f32;
+        to_ndc[4 * i + 2] = if i == 3 { 1.0 } else { 0.0 };
+        to_ndc[4 * i + 3] = cz[i] as f32;
+    }
+    (to_camera, to_ndc)
+}
+
+/// Applies a row-major row-vector matrix to the point `p`: `[p 1] · m`.
+pub fn transform_point(m: &[f32; 16], p: DVec3) -> [f64; 4] {
+    let row = [p.x, p.y, p.z, 1.0];
+    std::array::from_fn(|j| (0..4).map(|i| row[i] * m[4 * i + j] as f64).sum())
+}
+
+/// `(year, month, day, hour, minute, second)` in UTC of `seconds` since 1970-01-01 (Howard
+/// Hinnant's days-to-civil algorithm; ten lines rather than a date crate for one timestamp).
+fn civil_utc(seconds: u64) -> (i64, u32, u32, u32, u32, u32) {
+    let days = (seconds / 86400) as i64;
+    let rem = seconds % 86400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let year = yoe + era * 400 + (month <= 2) as i64;
+    (year, month, day, (rem / 3600) as u32, (rem / 60 % 60) as u32, (rem % 60) as u32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec2;
+    use crate::math::Vec3;
+    use crate::scene::CameraSpec;
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_utc(0), (1970, 1, 1, 0, 0, 0));
+        assert_eq!(civil_utc(951_782_400), (2000, 2, 29, 0, 0, 0));
+        assert_eq!(civil_utc(1_795_561_200), (2026, 11, 24, 23, 0, 0));
+    }
+
+    #[test]
+    fn a_point_on_a_pixel_ray_lands_on_that_pixel_and_its_distance() {
+        let spec = CameraSpec {
+            eye: Vec3::new(1.0, 2.0, 3.0),
+            target: Vec3::new(-1.0, 0.5, -2.0),
+            up: Vec3::Y,
+            fov_deg: 50.0,
+        };
+        let camera = Camera::new(&spec, 64, 48).unwrap();
+        let (to_camera, to_ndc) = camera_matrices(&camera);
+        for (x, y) in [(0, 0), (63, 0), (17, 30), (63, 47)] {
+            let ray = camera.ray(x, y, Vec2::splat(0.5));
+            let p = ray.org.as_dvec3() + 7.5 * ray.dir.as_dvec3();
+            let c = transform_point(&to_camera, p);
+            assert!((DVec3::new(c[0], c[1], c[2]).length() - 7.5).abs() < 1e-5);
+            assert!(c[2] > 0.0, "in front of the camera: +z");
+            let n = transform_point(&to_ndc, p);
+            let (nx, ny) = (n[0] / n[3], n[1] / n[3]);
+            assert!((nx - (x as f64 + 0.5) / 64.0).abs() < 1e-5, "pixel ({x}, {y}): ndc x {nx}");
+            assert!((ny - (y as f64 + 0.5) / 48.0).abs() < 1e-5, "pixel ({x}, {y}): ndc y {ny}");
+        }
+        // +x is right in the image, +y up.
+        let right = camera.ray(63, 24, Vec2::splat(0.5));
+        assert!(transform_point(&to_camera, (right.org + right.dir).as_dvec3())[0] > 0.0);
+        let top = camera.ray(32, 0, Vec2::splat(0.5));
+        assert!(transform_point(&to_camera, (top.org + top.dir).as_dvec3())[1] > 0.0);
+    }
+}
