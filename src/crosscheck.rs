@@ -294,8 +294,8 @@ fn magnitude(org: DVec3, points: &[DVec3]) -> f64 {
 fn margin(scene: &Scene, ray: &Ray, hit: &Hit) -> f64 {
     let (org, dir) = (ray.org.as_dvec3(), ray.dir.as_dvec3().normalize());
     match scene.geom_kind(hit.geom_id) {
-        GeomKind::Mesh(m) => {
-            let p = scene.meshes[m as usize].triangle(hit.prim_id as usize).map(|p| p.as_dvec3());
+        kind @ (GeomKind::Mesh(_) | GeomKind::Instance(_)) => {
+            let p = scene.world_triangle(kind, hit.prim_id as usize).unwrap_or_default().map(|p| p.as_dvec3());
             edge_distance(org, dir, p) / (EPS * magnitude(org, &p))
         }
         GeomKind::Spheres => {
@@ -331,11 +331,18 @@ fn edge_distance(org: DVec3, dir: DVec3, p: [DVec3; 3]) -> f64 {
 fn same_t_tolerance(scene: &Scene, ray: &Ray, hit: &Hit) -> f64 {
     let org = ray.org.as_dvec3();
     let pts: Vec<DVec3> = match scene.geom_kind(hit.geom_id) {
-        GeomKind::Mesh(m) => scene.meshes[m as usize].triangle(hit.prim_id as usize).map(|p| p.as_dvec3()).to_vec(),
+        kind @ (GeomKind::Mesh(_) | GeomKind::Instance(_)) => {
+            scene.world_triangle(kind, hit.prim_id as usize).unwrap_or_default().map(|p| p.as_dvec3()).to_vec()
+        }
         GeomKind::Spheres => vec![scene.spheres[hit.prim_id as usize].center.as_dvec3()],
         GeomKind::Planes => vec![ray.at(hit.t).as_dvec3()],
     };
-    let (d, n) = (ray.dir.as_dvec3(), hit.ng.as_dvec3());
+    // An instance hit's `ng` is in its prototype's object space: use the world triangle's.
+    let n = match scene.geom_kind(hit.geom_id) {
+        GeomKind::Instance(_) => (pts[1] - pts[0]).cross(pts[2] - pts[0]),
+        _ => hit.ng.as_dvec3(),
+    };
+    let d = ray.dir.as_dvec3();
     let obliquity = (d.length() * n.length() / d.dot(n).abs()).min(1000.0);
     EDGE_MARGIN * EPS * magnitude(org, &pts) * obliquity / d.length()
 }

@@ -2,6 +2,9 @@
 //! ([`crate::passes`] lists them; this table gives the rules of the first four).
 //!
 //! Pixels are stored row by row, `y = 0` at the top (the camera's convention and EXR's).
+//! A film may hold only a [`Region`] of the image (its data window): it then stores
+//! `width × height` pixels starting at image pixel `(origin_x, origin_y)` of a
+//! `display_width × display_height` image, and is indexed with image coordinates.
 //!
 //! What each channel holds, for a pixel with `spp` samples of which `k` primary rays hit
 //! geometry (the integrator's rules, [`crate::integrator`]):
@@ -29,12 +32,21 @@
 
 use crate::math::Vec3;
 use crate::passes::{OutputSpec, Pass};
+use crate::region::Region;
 
 /// A rendered frame and its arbitrary output variables (AOVs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
+    /// Pixels stored per row (the data window's width).
     pub width: u32,
+    /// Rows stored (the data window's height).
     pub height: u32,
+    /// The image pixel of the film's first stored pixel (the data window's top-left corner).
+    pub origin_x: u32,
+    pub origin_y: u32,
+    /// The whole image's size (the display window).
+    pub display_width: u32,
+    pub display_height: u32,
     /// Linear radiance, box-filtered over the pixel's samples, and alpha (see the module docs).
     pub rgba: Vec<[f32; 4]>,
     /// Distance along the primary ray from the eye to the nearest first hit among the pixel's
@@ -86,6 +98,13 @@ impl Film {
 
     /// A film holding the passes of `output`, zero, with depth at `f32::INFINITY`.
     pub fn with_output(width: u32, height: u32, output: &OutputSpec) -> Self {
+        Film::for_region(width, height, Region::full(width, height), output)
+    }
+
+    /// A film of the pixels of `region` of a `display_width × display_height` image, holding
+    /// the passes of `output`, zero, with depth at `f32::INFINITY`.
+    pub fn for_region(display_width: u32, display_height: u32, region: Region, output: &OutputSpec) -> Self {
+        let (width, height) = (region.width(), region.height());
         let n = width as usize * height as usize;
         let on = |p: Pass| if output.passes.contains(p) { n } else { 0 };
         let aovs = output
@@ -100,6 +119,10 @@ impl Film {
         Film {
             width,
             height,
+            origin_x: region.x0,
+            origin_y: region.y0,
+            display_width,
+            display_height,
             rgba: vec![[0.0; 4]; n],
             depth: vec![f32::INFINITY; on(Pass::Depth)],
             normal: vec![Vec3::ZERO; on(Pass::Normal)],
@@ -108,10 +131,54 @@ impl Film {
         }
     }
 
-    /// Index of pixel `(x, y)` in every channel.
+    /// Index of image pixel `(x, y)` (inside the film's region) in every channel.
     #[inline]
     pub fn index(&self, x: u32, y: u32) -> usize {
-        y as usize * self.width as usize + x as usize
+        (y - self.origin_y) as usize * self.width as usize + (x - self.origin_x) as usize
+    }
+
+    /// The pixels the film holds, in image coordinates (its data window).
+    pub fn region(&self) -> Region {
+        Region { x0: self.origin_x, y0: self.origin_y, x1: self.origin_x + self.width, y1: self.origin_y + self.height }
+    }
+
+    /// Every channel's storage as flat floats with the number of floats per pixel, in the
+    /// order of [`Film::channels`] (pass by pass).
+    pub fn buffers(&self) -> Vec<(&[f32], usize)> {
+        let mut out: Vec<(&[f32], usize)> = vec![(self.rgba.as_flattened(), 4)];
+        if !self.depth.is_empty() {
+            out.push((&self.depth, 1));
+        }
+        if !self.normal.is_empty() {
+            out.push((bytemuck::cast_slice(&self.normal), 3));
+        }
+        if !self.albedo.is_empty() {
+            out.push((bytemuck::cast_slice(&self.albedo), 3));
+        }
+        for aov in &self.aovs {
+            out.push((&aov.data, aov.floats_per_pixel));
+        }
+        out
+    }
+
+    /// Every channel's storage, mutable, as flat floats with the number of floats per pixel,
+    /// in the order of [`Film::channels`] (pass by pass). For copying whole pixels between
+    /// films of the same passes (a checkpoint's tiles).
+    pub fn buffers_mut(&mut self) -> Vec<(&mut [f32], usize)> {
+        let mut out: Vec<(&mut [f32], usize)> = vec![(self.rgba.as_flattened_mut(), 4)];
+        if !self.depth.is_empty() {
+            out.push((&mut self.depth, 1));
+        }
+        if !self.normal.is_empty() {
+            out.push((bytemuck::cast_slice_mut(&mut self.normal), 3));
+        }
+        if !self.albedo.is_empty() {
+            out.push((bytemuck::cast_slice_mut(&mut self.albedo), 3));
+        }
+        for aov in &mut self.aovs {
+            out.push((&mut aov.data, aov.floats_per_pixel));
+        }
+        out
     }
 
     /// The pass `pass` beyond the first four, if the film holds it.

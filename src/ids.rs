@@ -2,7 +2,7 @@
 //! Cryptomatte.
 //!
 //! The objects are the distinct names of the scene's primitives ([`crate::scene::ObjectNames`]),
-//! in the order they first appear (meshes, then spheres, then planes); primitives sharing a
+//! in the order they first appear (meshes, then spheres, then planes, then instances); primitives sharing a
 //! name are one object. Object `k` has the index `k + 1` in the `object_index` pass (0 where
 //! nothing is hit); material `m` (the scene's `materials[m]`) has `m + 1` in `material_index`.
 //! Their Cryptomatte ids are those of their names ([`crate::cryptomatte::id`]).
@@ -25,6 +25,7 @@ pub struct ObjectIds {
     mesh: Vec<u32>,
     sphere: Vec<u32>,
     plane: Vec<u32>,
+    instance: Vec<u32>,
 }
 
 impl ObjectIds {
@@ -50,6 +51,10 @@ impl ObjectIds {
             let o = object(scene.plane_name(i), &mut ids);
             ids.plane.push(o);
         }
+        for inst in &scene.instances {
+            let o = object(inst.name.clone(), &mut ids);
+            ids.instance.push(o);
+        }
         ids.material_id_bits = scene.materials.iter().map(|m| cryptomatte::id_bits(&m.name)).collect();
         ids
     }
@@ -60,6 +65,7 @@ impl ObjectIds {
             GeomKind::Mesh(m) => self.mesh[m as usize],
             GeomKind::Spheres => self.sphere[hit.prim_id as usize],
             GeomKind::Planes => self.plane[hit.prim_id as usize],
+            GeomKind::Instance(k) => self.instance[k as usize],
         }
     }
 }

@@ -42,8 +42,9 @@
 //!
 //! **Sampling and determinism.** `image.spp` stratified samples per pixel
 //! ([`crate::sampler`], seeded from the pixel index), box-filtered (their mean); `spp = 1`
-//! traces exactly the pixel centre. The image is split into [`TILE_SIZE`]² tiles rendered in
-//! parallel with rayon on the current pool. A tile traces its samples round by round, each
+//! traces exactly the pixel centre. The image (or the [`Region`] of it being rendered) is split
+//! into [`TILE_SIZE`]² tiles of the image's grid ([`Region::tiles`]) rendered in parallel with
+//! rayon on the current pool. A tile traces its samples round by round, each
 //! round one batch of primary rays ordered in 4×2-pixel blocks (one packet each); a pixel's
 //! samples are summed in sample order, ray counts are integers, and tiles are assembled in a
 //! fixed order, so the film and the counts are bit-identical for any number of threads. What the film's channels hold is
@@ -60,6 +61,7 @@
 //! exactly one tile, so the order tiles finish in does not matter.
 
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
@@ -71,6 +73,7 @@ use crate::ids::ObjectIds;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::optics;
 use crate::passes::{LIGHT_PASSES, Pass};
+use crate::region::Region;
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
@@ -100,8 +103,7 @@ impl std::ops::AddAssign for RayCounts {
     }
 }
 
-/// Edge length in pixels of the square tiles rendered in parallel.
-pub const TILE_SIZE: u32 = 16;
+pub use crate::region::TILE_SIZE;
 
 /// A secondary ray whose throughput is below this in every channel is not traced: it could
 /// change the pixel by at most this fraction of the radiance it would find.
@@ -130,15 +132,68 @@ pub fn render<A: Accel>(
     accel: &A,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Film, RayCounts), TraceError> {
+    let region = Region::full(scene.image.width, scene.image.height);
+    render_region(scene, accel, region, progress)
+}
+
+/// [`render`] of the pixels of `region` only (which must lie inside the image): a film of
+/// that region, every pixel bit-identical to the same pixel of a full render.
+pub fn render_region<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    region: Region,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Film, RayCounts), TraceError> {
+    let film = Film::for_region(scene.image.width, scene.image.height, region, &scene.output);
+    let tiles = region.tiles();
+    let on_tile = |_: usize, _: &Mutex<Film>| {};
+    let job = TileJob { tiles: &tiles, stop: None, progress, on_tile: &on_tile };
+    render_tiles(scene, accel, film, &job)
+}
+
+/// What [`render_tiles`] traces and whom it tells.
+pub struct TileJob<'a> {
+    /// The tiles to trace (inside the film's region; [`Region::tiles`] or some of them).
+    pub tiles: &'a [Region],
+    /// When set (by a signal handler, say), tiles not yet begun are skipped; those under way
+    /// finish. The caller can tell by the flag that the film is incomplete.
+    pub stop: Option<&'a AtomicBool>,
+    /// Called with the number of pixels finished since its last call.
+    pub progress: &'a (dyn Fn(u64) + Sync),
+    /// Called with the index (into `tiles`) of each tile once its pixels are in the film, and
+    /// the film (not locked: lock it to read).
+    pub on_tile: &'a (dyn Fn(usize, &Mutex<Film>) + Sync),
+}
+
+/// Traces `job.tiles` of `scene` into `film` (a film of the image or of a region of it,
+/// perhaps holding finished tiles already), in parallel on the current rayon pool, and
+/// returns it with the rays traced. Each pixel is written by exactly one tile and depends on
+/// nothing but its own index, so which tiles run, in what order and on how many threads
+/// changes no value.
+pub fn render_tiles<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    film: Film,
+    job: &TileJob,
+) -> Result<(Film, RayCounts), TraceError> {
     check_scene(scene)?;
     let img = &scene.image;
     let camera = Camera::new(&scene.camera, img.width, img.height)?;
     let whitted = Whitted { scene, accel, camera };
     let ids = ObjectIds::new(scene);
-    let film = Mutex::new(Film::with_output(img.width, img.height, &scene.output));
-    let counts = tiles(img.width, img.height)
+    let inside = film.region();
+    if let Some(t) = job.tiles.iter().find(|t| t.intersection(&inside) != Some(**t)) {
+        return Err(TraceError::InvalidScene(format!("tile {t} lies outside the film's region {inside}")));
+    }
+    let film = Mutex::new(film);
+    let counts = job
+        .tiles
         .par_iter()
-        .map(|tile| {
+        .enumerate()
+        .map(|(k, tile)| {
+            if job.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+                return Ok(RayCounts::default());
+            }
             let (pixels, accumulators, counts) = whitted.render_tile(tile, &ids)?;
             {
                 let mut film = film.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
@@ -146,7 +201,8 @@ pub fn render<A: Accel>(
                     acc.write(&mut film, x, y, scene, &ids);
                 }
             }
-            progress(tile.pixel_count());
+            (job.progress)(tile.pixel_count());
+            (job.on_tile)(k, &film);
             Ok::<_, TraceError>(counts)
         })
         .try_reduce(RayCounts::default, |mut a, b| {
@@ -193,6 +249,15 @@ pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
             return bad(object, problem);
         }
     }
+    if let Some((object, problem)) = scene.instances_problem() {
+        return bad(object, problem);
+    }
+    for (i, mesh) in scene.prototypes.iter().enumerate() {
+        let per_triangle = mesh.triangle_materials.iter().flatten().copied();
+        if let Some(problem) = std::iter::once(mesh.material).chain(per_triangle).find_map(missing) {
+            return bad(format!("prototype {i} '{}'", mesh.name), problem);
+        }
+    }
     for (i, s) in scene.spheres.iter().enumerate() {
         if let Some(problem) = s.problem().or_else(|| missing(s.material)) {
             return bad(format!("sphere {i}"), problem);
@@ -204,48 +269,6 @@ pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
         }
     }
     Ok(())
-}
-
-/// A rectangle of pixels `[x0, x1) × [y0, y1)`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Tile {
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
-}
-
-impl Tile {
-    fn pixel_count(&self) -> u64 {
-        (self.x1 - self.x0) as u64 * (self.y1 - self.y0) as u64
-    }
-
-    /// The tile's pixels in the order their rays are traced: blocks of 4×2 pixels, so that
-    /// each 8-ray packet covers a compact patch of the image (the most coherent rays).
-    fn pixels_in_packet_order(&self) -> Vec<(u32, u32)> {
-        let mut out = Vec::with_capacity(self.pixel_count() as usize);
-        for by in (self.y0..self.y1).step_by(2) {
-            for bx in (self.x0..self.x1).step_by(4) {
-                for y in by..(by + 2).min(self.y1) {
-                    for x in bx..(bx + 4).min(self.x1) {
-                        out.push((x, y));
-                    }
-                }
-            }
-        }
-        out
-    }
-}
-
-/// The image's tiles, row by row.
-fn tiles(width: u32, height: u32) -> Vec<Tile> {
-    let mut out = Vec::new();
-    for y0 in (0..height).step_by(TILE_SIZE as usize) {
-        for x0 in (0..width).step_by(TILE_SIZE as usize) {
-            out.push(Tile { x0, y0, x1: (x0 + TILE_SIZE).min(width), y1: (y0 + TILE_SIZE).min(height) });
-        }
-    }
-    out
 }
 
 /// The radiance of a camera ray split into the terms of the shading formula (the module
@@ -404,7 +427,7 @@ impl<A: Accel> Whitted<'_, A> {
     #[allow(clippy::type_complexity)]
     fn render_tile(
         &self,
-        tile: &Tile,
+        tile: &Region,
         ids: &ObjectIds,
     ) -> Result<(Vec<(u32, u32)>, Vec<PixelAccumulator>, RayCounts), TraceError> {
         // Embree asks for flush-to-zero in every thread that traces; setting it here (two

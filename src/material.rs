@@ -3,18 +3,22 @@
 //! (Snell + Fresnel) and emission. All reflectances are in [0, 1] per channel.
 //!
 //! The formulas themselves live in [`crate::optics`]; this module holds the parameters and
-//! evaluates the texture.
+//! evaluates the texture (image textures: [`crate::texture`]).
 
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
+use crate::texture::ImageTexture;
 
 /// How the diffuse albedo varies over a surface.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
     /// The same albedo everywhere.
     Constant(Vec3),
     /// A world-space 3-D checkerboard of cubes of edge `size`: `even` where
     /// `⌊x/size⌋ + ⌊y/size⌋ + ⌊z/size⌋` is even, `odd` elsewhere.
     Checker { even: Vec3, odd: Vec3, size: f32 },
+    /// An image looked up at the surface's texture coordinates (glTF `baseColorTexture`, OBJ
+    /// `map_Kd`); surfaces without texture coordinates look it up at `(0, 0)`.
+    Image(ImageTexture),
 }
 
 /// How far (in units of the checker `size`) a texture lookup moves a point against the
@@ -23,21 +27,23 @@ const CHECKER_INSET: f32 = 1e-4;
 
 impl Texture {
     /// The albedo at world-space point `p` of a surface whose outward geometric normal is
-    /// `ng_outward` (unit, not flipped towards the viewer).
+    /// `ng_outward` (unit, not flipped towards the viewer) and whose texture coordinates there
+    /// are `uv`.
     ///
     /// A surface lying exactly on a cell boundary (Whitted's floor at `y = 0` or `y = −1` with
     /// `size = 1`) would otherwise pick one of the two cells at random from the rounding of
     /// its hit points. The lookup therefore moves `p` by `10⁻⁴·size` into the object (against
     /// the outward normal), which decides such ties the same way everywhere and moves the
     /// checker's edges by a negligible amount elsewhere.
-    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3) -> Vec3 {
-        match *self {
-            Texture::Constant(c) => c,
-            Texture::Checker { even, odd, size } => {
+    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3, uv: Vec2) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            &Texture::Checker { even, odd, size } => {
                 let q = (p - CHECKER_INSET * size * ng_outward) / size;
                 let cell = q.x.floor() as i64 + q.y.floor() as i64 + q.z.floor() as i64;
                 if cell.rem_euclid(2) == 0 { even } else { odd }
             }
+            Texture::Image(t) => t.lookup(uv),
         }
     }
 
@@ -45,6 +51,7 @@ impl Texture {
     pub fn problem(&self) -> Option<String> {
         match *self {
             Texture::Constant(c) => bad_colour("diffuse", c),
+            Texture::Image(ref t) => bad_colour("texture factor", t.factor),
             Texture::Checker { even, odd, size } => bad_colour("checker even", even)
                 .or_else(|| bad_colour("checker odd", odd))
                 .or_else(|| (!(size > 0.0 && size.is_finite())).then(|| format!("checker size {size} must be > 0"))),
@@ -159,23 +166,23 @@ fn bad_colour(what: &str, c: Vec3) -> Option<String> {
 mod tests {
     use super::*;
 
-    const CHECKER: Texture = Texture::Checker { even: Vec3::ONE, odd: Vec3::ZERO, size: 1.0 };
+    const CHECKER: &Texture = &Texture::Checker { even: Vec3::ONE, odd: Vec3::ZERO, size: 1.0 };
 
     #[test]
     fn checker_cells_alternate() {
         let up = Vec3::Y;
-        assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, 0.5, 0.5), up), Vec3::ONE);
-        assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, 0.5, 0.5), up), Vec3::ZERO);
-        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, 0.5, 0.5), up), Vec3::ZERO);
-        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, -0.5, 0.5), up), Vec3::ONE);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, 0.5, 0.5), up, Vec2::ZERO), Vec3::ONE);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, 0.5, 0.5), up, Vec2::ZERO), Vec3::ZERO);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, 0.5, 0.5), up, Vec2::ZERO), Vec3::ZERO);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, -0.5, 0.5), up, Vec2::ZERO), Vec3::ONE);
     }
 
     #[test]
     fn a_floor_on_a_cell_boundary_is_one_cell_thick() {
         // Points on y = 0, a hair above and below it: all take the cell below (y ∈ [−1, 0)).
         for y in [0.0f32, 1e-7, -1e-7] {
-            assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, y, 0.5), Vec3::Y), Vec3::ZERO, "y = {y}");
-            assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, y, 0.5), Vec3::Y), Vec3::ONE, "y = {y}");
+            assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, y, 0.5), Vec3::Y, Vec2::ZERO), Vec3::ZERO, "y = {y}");
+            assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, y, 0.5), Vec3::Y, Vec2::ZERO), Vec3::ONE, "y = {y}");
         }
     }
 

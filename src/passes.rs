@@ -111,8 +111,8 @@ impl Pass {
         matches!(self, Pass::CryptoObject | Pass::CryptoMaterial)
     }
 
-    /// Whether the pass is a colour (radiance or reflectance) that `--half` stores as half
-    /// float; geometry, indices and Cryptomatte stay float32.
+    /// Whether the pass is a colour (radiance or reflectance). `--half` stores these, and the
+    /// normals, as half floats ([`crate::io::exr`]).
     pub fn is_colour(self) -> bool {
         matches!(self, Pass::Combined | Pass::Albedo) || self.is_light()
     }

@@ -2,7 +2,7 @@
 //! reconstructed from the [`Hit`] and the scene data.
 //!
 //! On triangles this is the lecture's barycentric interpolation: with the hit's `u, v`,
-//! every per-vertex quantity `q` (position, normal, colour) becomes
+//! every per-vertex quantity `q` (position, normal, colour, texture coordinates) becomes
 //! `q = (1 − u − v)·q0 + u·q1 + v·q2`. Spheres use their exact normal `(p − c)/r`, planes
 //! their `n`.
 //!
@@ -20,7 +20,7 @@
 //! silhouettes of coarse meshes) it is replaced by `ng`.
 
 use crate::accel::Hit;
-use crate::math::{Ray, Vec3};
+use crate::math::{Ray, Vec2, Vec3};
 use crate::scene::{GeomKind, Scene};
 
 /// The shading data of one hit.
@@ -48,6 +48,12 @@ pub fn barycentric(q: [Vec3; 3], u: f32, v: f32) -> Vec3 {
     (1.0 - u - v) * q[0] + u * q[1] + v * q[2]
 }
 
+/// `(1 − u − v)·t0 + u·t1 + v·t2` for texture coordinates.
+#[inline]
+pub fn barycentric2(t: [Vec2; 3], u: f32, v: f32) -> Vec2 {
+    (1.0 - u - v) * t[0] + u * t[1] + v * t[2]
+}
+
 impl SurfacePoint {
     /// The shading data of `hit`, the closest hit of `ray` in `scene`.
     ///
@@ -55,7 +61,7 @@ impl SurfacePoint {
     /// integrator checks the scene before tracing).
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let prim = hit.prim_id as usize;
-        let (p, ng_outward, ns, colour, material) = match scene.geom_kind(hit.geom_id) {
+        let (p, ng_outward, ns, colour, uv, material) = match scene.geom_kind(hit.geom_id) {
             GeomKind::Mesh(m) => {
                 let mesh = &scene.meshes[m as usize];
                 let idx = mesh.indices[prim].map(|i| i as usize);
@@ -64,17 +70,36 @@ impl SurfacePoint {
                 let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
                 let ns = mesh.normals.as_ref().map_or(Vec3::ZERO, |n| barycentric(idx.map(|i| n[i]), hit.u, hit.v));
                 let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), hit.u, hit.v));
-                (p, ng, ns.normalize_or_zero(), colour, mesh.material_of(prim))
+                let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), hit.u, hit.v));
+                (p, ng, ns.normalize_or_zero(), colour, uv, mesh.material_of(prim))
+            }
+            GeomKind::Instance(k) => {
+                // As a flattened copy: corners and normals transformed one by one, then
+                // interpolated (see `crate::scene::instance`).
+                let inst = &scene.instances[k as usize];
+                let mesh = &scene.prototypes[inst.prototype as usize];
+                let idx = mesh.indices[prim].map(|i| i as usize);
+                let corners = inst.corners(mesh, prim);
+                let p = barycentric(corners, hit.u, hit.v);
+                let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
+                let ng = if inst.transform.flips_orientation() { -ng } else { ng };
+                let ns = mesh
+                    .normals
+                    .as_ref()
+                    .map_or(Vec3::ZERO, |n| barycentric(idx.map(|i| inst.transform.normal(n[i])), hit.u, hit.v));
+                let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), hit.u, hit.v));
+                let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), hit.u, hit.v));
+                (p, ng, ns.normalize_or_zero(), colour, uv, inst.material_of(mesh, prim))
             }
             GeomKind::Spheres => {
                 let s = &scene.spheres[prim];
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
-                (s.center + s.radius * n, n, n, Vec3::ONE, s.material)
+                (s.center + s.radius * n, n, n, Vec3::ONE, Vec2::ZERO, s.material)
             }
             GeomKind::Planes => {
                 let pl = &scene.planes[prim];
                 let x = ray.at(hit.t);
-                (x - (pl.normal.dot(x) - pl.dist) * pl.normal, pl.normal, pl.normal, Vec3::ONE, pl.material)
+                (x - (pl.normal.dot(x) - pl.dist) * pl.normal, pl.normal, pl.normal, Vec3::ONE, Vec2::ZERO, pl.material)
             }
         };
         // A degenerate triangle (zero area) has no normal of its own: face the ray.
@@ -84,7 +109,7 @@ impl SurfacePoint {
         let front_face = ray.dir.dot(ng_outward) < 0.0;
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
         let ns = if ns.dot(ray.dir) >= 0.0 { ng } else { ns };
-        let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward) * colour;
+        let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
         SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo }
     }
 }

@@ -3,7 +3,7 @@
 //! analytic hits through the `Accel` interface; bad input refused.
 
 use strahl::accel::{Accel, Hit};
-use strahl::bvh::{BuildOptions, Bvh};
+use strahl::bvh::{BuildOptions, Bvh, Kernel};
 use strahl::geometry::triangle::{self, RayFrame};
 use strahl::geometry::{Plane, Sphere, plane, sphere};
 use strahl::math::{Aabb, Ray, Vec3};
@@ -113,6 +113,54 @@ fn same_hits_as_brute_force_on_random_scenes() {
         let rays = rays(&scene, 4000, seed + 100);
         let hits = assert_same(&scene, &bvh, &rays);
         assert!(hits > 250, "seed {seed}: only {hits} hits");
+    }
+}
+
+/// The portable kernel against brute force, and every kernel this CPU runs against the
+/// portable one: the same hits to the bit, closest and any, on random rays and on
+/// axis-parallel rays through box faces and corners (where the slab test meets 0·∞).
+#[test]
+fn every_kernel_gives_the_portable_kernels_hits() {
+    let kernels = [
+        Kernel::Portable,
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2,
+    ];
+    for (seed, tris, spheres, planes) in [(5, 3000, 200, true), (6, 20_000, 0, false)] {
+        let scene = random_scene(seed, tris, spheres, planes);
+        let mut rays = rays(&scene, 4000, seed + 100);
+        // Axis-parallel rays through a grid of points: faces and corners of the leaf boxes.
+        for i in 0..2000 {
+            let p = Vec3::new((i % 13) as f32 * 0.25 - 1.5, (i / 13 % 11) as f32 * 0.25 - 1.25, -3.0);
+            let axis = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z][i % 6];
+            rays.push(Ray::new(rotate(p, i % 3) - 3.0 * axis, axis));
+        }
+        let portable = Bvh::build(&scene).unwrap().with_kernel(Kernel::Portable).unwrap();
+        let hits = assert_same(&scene, &portable, &rays[..4000]);
+        assert!(hits > 250, "seed {seed}: only {hits} hits");
+        for kernel in kernels {
+            let Some(bvh) = Bvh::build(&scene).unwrap().with_kernel(kernel) else {
+                eprintln!("skipping the {} kernel: this CPU does not run it", kernel.name());
+                continue;
+            };
+            assert_eq!(bvh.kernel(), kernel);
+            for (i, ray) in rays.iter().enumerate() {
+                assert_eq!(bvh.intersect(ray).unwrap(), portable.intersect(ray).unwrap(), "{kernel:?}, ray {i}");
+                assert_eq!(bvh.occluded(ray).unwrap(), portable.occluded(ray).unwrap(), "{kernel:?}, ray {i}");
+            }
+        }
+    }
+    for k in 0..3 {
+        let scene = quad_scene(k);
+        let portable = Bvh::build(&scene).unwrap().with_kernel(Kernel::Portable).unwrap();
+        for kernel in kernels {
+            let Some(bvh) = Bvh::build(&scene).unwrap().with_kernel(kernel) else { continue };
+            for (x, y) in [(1.0, 2.0), (3.0, 2.0), (2.0, 3.0), (1.0, 1.0), (3.0, 3.0), (0.999, 2.0), (3.001, 2.0)] {
+                let down = Ray::new(rotate(Vec3::new(x, y, 5.0), k), rotate(-Vec3::Z, k));
+                assert_eq!(bvh.intersect(&down).unwrap(), portable.intersect(&down).unwrap(), "{kernel:?} ({x}, {y})");
+                assert_eq!(bvh.occluded(&down).unwrap(), portable.occluded(&down).unwrap(), "{kernel:?} ({x}, {y})");
+            }
+        }
     }
 }
 

@@ -7,9 +7,10 @@
 //!   structure-of-arrays form, 256 bytes), in one flat array; triangles copied into leaf
 //!   blocks of four ([`Triangle4`], with their ids) in tree order, so a leaf's triangles are
 //!   contiguous.
-//! - Traversal: a stack of node references, nearest child first, eight slab tests per node (two
-//!   4-wide SIMD passes with glam's `Vec4`) with a precomputed inverse direction and the near
-//!   slab chosen by the direction's signs; leaves run the watertight triangle test four at a time
+//! - Traversal: a stack of node references, nearest child first, eight slab tests per node
+//!   with a precomputed inverse direction and the near slab chosen by the direction's signs:
+//!   one 8-wide AVX2 pass where the CPU has AVX2 ([`simd`], which also prefetches the
+//!   children a ray will visit), else two 4-wide passes with glam's `Vec4` ([`Kernel`]); leaves run the watertight triangle test four at a time
 //!   ([`triangle::intersect4`]) and the lecture's sphere quadratic ([`sphere::intersect`], the
 //!   function Embree's callbacks call too). The closest triangle hit's `t` is recomputed in
 //!   f64 where the watertight test's own `t` may have lost digits ([`triangle::reported_t`]).
@@ -20,7 +21,10 @@
 //! one.
 
 pub mod build;
+pub mod instance;
 pub mod node;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 
 use glam::Vec4;
 use rayon::prelude::*;
@@ -102,6 +106,64 @@ pub struct Bvh {
     planes_geom_id: u32,
     /// Whether the tree is shallow enough for the fixed traversal stack.
     shallow: bool,
+    /// The scene's instances: a second level of trees ([`instance`]), if it has any.
+    instances: Option<Box<instance::Instances>>,
+    /// The traversal kernel: AVX2 where the CPU has it.
+    kernel: Traversal,
+}
+
+/// The kernel a [`Bvh`] traces with; the AVX2 one holds the proof that the CPU has AVX2.
+#[derive(Clone, Copy, Debug)]
+enum Traversal {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2(simd::Avx2),
+}
+
+impl Traversal {
+    fn of(kernel: Kernel) -> Option<Traversal> {
+        match kernel {
+            Kernel::Portable => Some(Traversal::Portable),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => simd::Avx2::detect().map(Traversal::Avx2),
+        }
+    }
+}
+
+/// The traversal kernels. Both run the same operations on the same values in the same order
+/// (only the SIMD width of the slab test differs), so they find bit-identical hits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// glam's 4-wide vectors: two passes per 8-wide node, on any CPU.
+    Portable,
+    /// One 8-wide AVX2 pass per node, the whole traversal compiled for AVX2 ([`simd`]).
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl Kernel {
+    /// The fastest kernel this CPU runs.
+    pub fn best() -> Kernel {
+        #[cfg(target_arch = "x86_64")]
+        if simd::Avx2::detect().is_some() {
+            return Kernel::Avx2;
+        }
+        Kernel::Portable
+    }
+
+    /// Whether this CPU runs the kernel.
+    pub fn is_supported(self) -> bool {
+        Traversal::of(self).is_some()
+    }
+
+    /// `portable` or `avx2`, for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Portable => "portable",
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => "avx2",
+        }
+    }
 }
 
 /// Four triangles of a leaf and their ids (176 bytes): the ids follow the corners, so
@@ -257,6 +319,8 @@ impl Bvh {
             spheres_geom_id: scene.spheres_geom_id(),
             planes_geom_id: scene.planes_geom_id(),
             shallow: false,
+            instances: instance::Instances::build(scene)?.map(Box::new),
+            kernel: Traversal::of(Kernel::best()).unwrap_or(Traversal::Portable),
         }
         .with_stack_choice())
     }
@@ -265,6 +329,22 @@ impl Bvh {
     fn with_stack_choice(mut self) -> Self {
         self.shallow = (WIDTH - 1) * self.stats().depth <= STACK;
         self
+    }
+
+    /// The traversal kernel in use.
+    pub fn kernel(&self) -> Kernel {
+        match self.kernel {
+            Traversal::Portable => Kernel::Portable,
+            #[cfg(target_arch = "x86_64")]
+            Traversal::Avx2(_) => Kernel::Avx2,
+        }
+    }
+
+    /// The same tree traced with `kernel` instead (for tests and benchmarks); `None` if this
+    /// CPU cannot run it.
+    pub fn with_kernel(mut self, kernel: Kernel) -> Option<Self> {
+        self.kernel = Traversal::of(kernel)?;
+        Some(self)
     }
 
     /// The bounds of everything in the tree (planes excluded).
@@ -335,33 +415,68 @@ impl Bvh {
         })
     }
 
-    /// The closest hit in the tree within `(ray.tnear, ray.tfar)`.
+    /// The closest hit in the tree within `(ray.tnear, tfar)`, with the kernel chosen at
+    /// build time. (`tfar` comes apart from the ray: a shortened copy of the ray, read back
+    /// right after it is written, stalled store forwarding for 15 % of a miss's time.)
     #[inline]
-    fn intersect_tree(&self, ray: &Ray) -> Option<Hit> {
-        let r = TraversalRay::new(ray);
-        match (self.shallow, r.axial) {
-            (true, false) => {
-                self.intersect_with::<false>(ray, &r, ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 })
+    fn intersect_tree(&self, ray: &Ray, tfar: f32) -> Option<Hit> {
+        match self.kernel {
+            Traversal::Portable => {
+                let r = TraversalRay::new(ray);
+                self.intersect_by(ray, tfar, &r, &r)
             }
-            (true, true) => {
-                self.intersect_with::<true>(ray, &r, ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 })
-            }
-            (false, false) => self.intersect_with::<false>(ray, &r, Vec::new()),
-            (false, true) => self.intersect_with::<true>(ray, &r, Vec::new()),
+            #[cfg(target_arch = "x86_64")]
+            Traversal::Avx2(avx2) => avx2.intersect(self, ray, tfar),
         }
     }
 
     /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
     #[inline]
     fn occluded_tree(&self, ray: &Ray) -> bool {
-        let r = TraversalRay::new(ray);
+        match self.kernel {
+            Traversal::Portable => {
+                let r = TraversalRay::new(ray);
+                self.occluded_by(ray, &r, &r)
+            }
+            #[cfg(target_arch = "x86_64")]
+            Traversal::Avx2(avx2) => avx2.occluded(self, ray),
+        }
+    }
+
+    /// [`Bvh::intersect_tree`] with the slab test `boxes` (made from `r`): the stack and the
+    /// axial variant chosen.
+    #[inline(always)]
+    fn intersect_by(&self, ray: &Ray, tfar: f32, r: &TraversalRay, boxes: &impl BoxTest) -> Option<Hit> {
+        match (self.shallow, r.axial) {
+            (true, false) => self.intersect_with::<false>(
+                ray,
+                tfar,
+                boxes,
+                ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 },
+            ),
+            (true, true) => self.intersect_with::<true>(
+                ray,
+                tfar,
+                boxes,
+                ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 },
+            ),
+            (false, false) => self.intersect_with::<false>(ray, tfar, boxes, Vec::new()),
+            (false, true) => self.intersect_with::<true>(ray, tfar, boxes, Vec::new()),
+        }
+    }
+
+    /// [`Bvh::occluded_tree`] with the slab test `boxes` (made from `r`).
+    #[inline(always)]
+    fn occluded_by(&self, ray: &Ray, r: &TraversalRay, boxes: &impl BoxTest) -> bool {
         match (self.shallow, r.axial) {
             (true, false) => {
-                self.occluded_with::<false>(ray, &r, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
+                self.occluded_with::<false>(ray, boxes, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
             }
-            (true, true) => self.occluded_with::<true>(ray, &r, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 }),
-            (false, false) => self.occluded_with::<false>(ray, &r, Vec::new()),
-            (false, true) => self.occluded_with::<true>(ray, &r, Vec::new()),
+            (true, true) => {
+                self.occluded_with::<true>(ray, boxes, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
+            }
+            (false, false) => self.occluded_with::<false>(ray, boxes, Vec::new()),
+            (false, true) => self.occluded_with::<true>(ray, boxes, Vec::new()),
         }
     }
 
@@ -369,10 +484,11 @@ impl Bvh {
     fn intersect_with<const AXIAL: bool>(
         &self,
         ray: &Ray,
-        r: &TraversalRay,
+        tfar: f32,
+        r: &impl BoxTest,
         mut stack: impl Stack<(ChildRef, f32)>,
     ) -> Option<Hit> {
-        let mut best_t = ray.tfar;
+        let mut best_t = tfar;
         let mut found = None;
         let mut frame = None;
         let mut cur = self.root;
@@ -405,6 +521,14 @@ impl Bvh {
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     let rest = mask & (mask - 1);
+                    if rest != 0 {
+                        // Several children: fetch them all at once rather than one by one.
+                        let mut m = mask;
+                        while m != 0 {
+                            r.prefetch(self, node.children[m.trailing_zeros() as usize]);
+                            m &= m - 1;
+                        }
+                    }
                     if rest == 0 {
                         // One child: descend.
                         cur = node.children[first];
@@ -445,7 +569,7 @@ impl Bvh {
             // Pop the next subtree the ray may still reach before its closest hit so far.
             loop {
                 let Some((c, entry)) = stack.pop() else {
-                    return found.map(|f| self.hit_of(ray, f));
+                    return found.map(|f| self.hit_of(ray, tfar, f));
                 };
                 if entry <= best_t * EXIT_SCALE {
                     cur = c;
@@ -456,7 +580,7 @@ impl Bvh {
     }
 
     #[inline(always)]
-    fn occluded_with<const AXIAL: bool>(&self, ray: &Ray, r: &TraversalRay, mut stack: impl Stack<ChildRef>) -> bool {
+    fn occluded_with<const AXIAL: bool>(&self, ray: &Ray, r: &impl BoxTest, mut stack: impl Stack<ChildRef>) -> bool {
         let mut frame = None;
         let mut cur = self.root;
         loop {
@@ -480,6 +604,7 @@ impl Bvh {
                 let node = &self.nodes[cur.index()];
                 let (_, mut mask) = r.hit_boxes::<AXIAL>(node, ray.tfar);
                 while mask != 0 {
+                    r.prefetch(self, node.children[mask.trailing_zeros() as usize]);
                     stack.push(node.children[mask.trailing_zeros() as usize]);
                     mask &= mask - 1;
                 }
@@ -492,13 +617,13 @@ impl Bvh {
     }
 
     /// The [`Hit`] of what the traversal found, with Embree's conventions.
-    fn hit_of(&self, ray: &Ray, found: Found) -> Hit {
+    fn hit_of(&self, ray: &Ray, tfar: f32, found: Found) -> Hit {
         match found {
             Found::Triangle { block, lane, hit } => {
                 let block = &self.blocks[block];
                 let [p0, p1, p2] = block.triangles.get(lane);
                 let (geom_id, prim_id) = (block.geom_ids[lane], block.prim_ids[lane]);
-                let t = triangle::reported_t(ray.org, ray.dir, [p0, p1, p2], hit.t, ray.tnear, ray.tfar);
+                let t = triangle::reported_t(ray.org, ray.dir, [p0, p1, p2], hit.t, ray.tnear, tfar);
                 Hit { t, ng: triangle::normal(p0, p1, p2), u: hit.u, v: hit.v, geom_id, prim_id }
             }
             Found::Sphere { index, t } => {
@@ -537,7 +662,7 @@ struct TraversalRay {
 }
 
 impl TraversalRay {
-    #[inline]
+    #[inline(always)]
     fn new(ray: &Ray) -> Self {
         // 1/±0 = ±∞: the slab of an axis the ray runs parallel to is (−∞, ∞) from inside and
         // empty from outside; on its plane, 0·∞ = NaN, which the axial test ignores.
@@ -554,11 +679,23 @@ impl TraversalRay {
             axial: inv.iter().any(|i| !i.is_finite() || *i == 0.0),
         }
     }
+}
 
+/// The slab test of a node's eight children, as the traversal calls it.
+trait BoxTest {
     /// Slab tests of the node's boxes against `(tnear, tfar)`: entry distances, and a bit
-    /// mask of the boxes the ray enters. `AXIAL` must be `self.axial`: the general test
-    /// reduces the slabs in a balanced tree (a shorter dependency chain), the axial one in a
-    /// chain that keeps the accumulated value where a slab gives NaN.
+    /// mask of the boxes the ray enters. `AXIAL` must be the ray's [`TraversalRay::axial`]:
+    /// the general test reduces the slabs in a balanced tree (a shorter dependency chain), the
+    /// axial one in a chain that keeps the accumulated value where a slab gives NaN.
+    fn hit_boxes<const AXIAL: bool>(&self, node: &Node, tfar: f32) -> ([f32; WIDTH], u32);
+
+    /// Starts loading a child the traversal will visit into the cache (a hint: kernels
+    /// without a prefetch instruction do nothing).
+    #[inline(always)]
+    fn prefetch(&self, _bvh: &Bvh, _child: ChildRef) {}
+}
+
+impl BoxTest for TraversalRay {
     #[inline(always)]
     fn hit_boxes<const AXIAL: bool>(&self, node: &Node, tfar: f32) -> ([f32; WIDTH], u32) {
         let b = &node.bounds;
@@ -624,15 +761,19 @@ impl Accel for Bvh {
             return Ok(None);
         }
         let plane_hit = self.plane_hit(ray);
-        let clipped = Ray { tfar: plane_hit.map_or(ray.tfar, |h| h.t), ..*ray };
-        Ok(self.intersect_tree(&clipped).or(plane_hit))
+        let hit = self.intersect_tree(ray, plane_hit.map_or(ray.tfar, |h| h.t)).or(plane_hit);
+        let Some(instances) = &self.instances else { return Ok(hit) };
+        let clipped = Ray { tfar: hit.map_or(ray.tfar, |h| h.t), ..*ray };
+        Ok(instances.intersect(&clipped).or(hit))
     }
 
     fn occluded(&self, ray: &Ray) -> Result<bool, TraceError> {
         if !traceable(ray) {
             return Ok(false);
         }
-        Ok(plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).is_some() || self.occluded_tree(ray))
+        Ok(plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).is_some()
+            || self.occluded_tree(ray)
+            || self.instances.as_ref().is_some_and(|i| i.occluded(ray)))
     }
 }
 

@@ -1,6 +1,7 @@
 //! `strahl info SCENE`: loads a scene (its warnings on stderr) and prints what it holds, one
 //! item per line in a fixed order: each object (name, type, mesh file, primitive count,
-//! materials), then the totals, the bounding box, the degenerate triangles dropped from mesh
+//! materials), then the totals (with instances: unique triangles, stored once, and instanced
+//! triangles, as rays see them), the bounding box, the degenerate triangles dropped from mesh
 //! files and the time loading took.
 
 use std::path::PathBuf;
@@ -36,9 +37,21 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
         format!("min {:.4} max {:.4} (meshes and spheres; planes are unbounded)", bounds.min, bounds.max)
     };
     let dropped: usize = objects.iter().map(|o| o.degenerate_dropped).sum();
+    lines.extend([format!("objects: {}", objects.len()), format!("triangles: {}", scene.triangle_count())]);
+    if !scene.instances.is_empty() {
+        // Unique: stored once (meshes and prototypes); instanced: what rays see.
+        lines.extend([
+            format!(
+                "instances: {} of {} prototypes ({} prototype triangles)",
+                scene.instances.len(),
+                scene.prototypes.len(),
+                scene.prototype_triangle_count()
+            ),
+            format!("unique triangles: {}", scene.triangle_count() + scene.prototype_triangle_count()),
+            format!("instanced triangles: {}", scene.triangle_count() + scene.instanced_triangle_count()),
+        ]);
+    }
     lines.extend([
-        format!("objects: {}", objects.len()),
-        format!("triangles: {}", scene.triangle_count()),
         format!("spheres: {}", scene.spheres.len()),
         format!("planes: {}", scene.planes.len()),
         format!("lights: {}", scene.lights.len()),

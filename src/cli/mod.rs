@@ -1,10 +1,12 @@
-//! The `strahl` command's subcommands, one file each (`render.rs`, `info.rs`, `crosscheck.rs`,
-//! `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
+//! The `strahl` command's subcommands, one file each (`render.rs`, `merge.rs`, `farm.rs`, `info.rs`,
+//! `crosscheck.rs`, `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
 //! Errors are `anyhow` with context; `main` prints them as one line.
 
 mod bench;
 mod crosscheck;
+mod farm;
 mod info;
+mod merge;
 mod progress;
 mod render;
 
@@ -27,6 +29,11 @@ pub struct Cli {
 enum Command {
     /// Render a scene file to OpenEXR (and optionally a PNG preview).
     Render(render::RenderArgs),
+    /// Join the EXRs of regions of one render (`render --region`/`--tile`) into the whole image.
+    Merge(merge::MergeArgs),
+    /// Split a render over a farm's scheduler: `strahl farm slurm` writes (and submits) a Slurm
+    /// job array of tile renders and a merge job.
+    Farm(farm::FarmArgs),
     /// Load a scene and describe it: objects, counts, bounds, load time.
     Info(info::InfoArgs),
     /// Trace the same rays through Embree and the native BVH and account for every difference.
@@ -49,6 +56,8 @@ pub fn version_report() -> String {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
+        Command::Merge(args) => merge::run(args),
+        Command::Farm(args) => farm::run(args),
         Command::Info(args) => info::run(args),
         Command::Crosscheck(args) => crosscheck::run(args),
         Command::Bench(args) => bench::run(args),
@@ -56,17 +65,30 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// Loads the scene at `path` and prints its warnings on stderr, one `warning: …` line each: a
-/// scene file (TOML), or a mesh file (OBJ, PLY) as a scene of that mesh alone
-/// ([`strahl::scene::from_mesh_file`]), told apart by the file's extension.
-fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
-    let loaded = match MeshFormat::of(path) {
-        Some(_) => strahl::scene::from_mesh_file(path)?,
-        None => strahl::scene::load(path)?,
+/// scene file (TOML), a glTF file (`.gltf`, `.glb`) with its own camera and lights
+/// ([`strahl::scene::from_gltf_file`], with `camera` choosing among its cameras), or a mesh
+/// file (OBJ, PLY) as a scene of that mesh alone ([`strahl::scene::from_mesh_file`]), told
+/// apart by the file's extension.
+fn load_scene_with_camera(path: &Path, camera: Option<&str>) -> anyhow::Result<strahl::scene::Loaded> {
+    let loaded = if strahl::io::gltf::is_gltf(path) {
+        strahl::scene::from_gltf_file(path, camera)?
+    } else if camera.is_some() {
+        anyhow::bail!("{}: --camera chooses among the cameras of a glTF file; this is not one", path.display());
+    } else {
+        match MeshFormat::of(path) {
+            Some(_) => strahl::scene::from_mesh_file(path)?,
+            None => strahl::scene::load(path)?,
+        }
     };
     for warning in &loaded.warnings {
         eprintln!("warning: {warning}");
     }
     Ok(loaded)
+}
+
+/// [`load_scene_with_camera`] with a glTF file's first camera.
+fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
+    load_scene_with_camera(path, None)
 }
 
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).

@@ -1,37 +1,50 @@
-//! `strahl render SCENE -o OUT.exr [--png OUT.png] [--backend embree|native]`: loads the scene
+//! `strahl render SCENE -o OUT.exr [--png OUT.png] [--backend embree|native]
+//! [--region X0,Y0,X1,Y1 | --tile I/N] [--checkpoint-every S] [--resume]`: loads the scene
 //! (its warnings on stderr), applies the command-line overrides, checks the outputs can be
-//! written, builds the backend's BVH (Embree's, or the native one), renders on a pool of
+//! written, picks the pixels to render (the whole image, a region, or a farm tile:
+//! [`strahl::region`]), builds the backend's BVH (Embree's, or the native one), renders on a pool of
 //! `--threads` workers with a progress bar, writes the EXR (and PNG) atomically and prints a
-//! summary: resolution, samples, backend, rays by kind, time, Mrays/s, build time.
+//! summary: resolution, samples, backend, rays by kind, time, Mrays/s, build time. While it
+//! renders it saves the finished tiles to `OUT.exr.checkpoint` ([`strahl::checkpoint`]) every
+//! `--checkpoint-every` seconds and on SIGINT/SIGTERM; `--resume` continues from it; the
+//! finished render removes it.
 //!
 //! Both backends go through the same [`integrator::render`]; the images differ only where the
 //! backends' hits differ (see `strahl crosscheck`).
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use super::progress::Progress;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use signal_hook::consts::{SIGINT, SIGTERM};
 use strahl::Accel;
 use strahl::bvh::Bvh;
+use strahl::checkpoint;
 use strahl::embree::{BuildOptions, EmbreeAccel};
 use strahl::film::Film;
 use strahl::ids::ObjectIds;
-use strahl::integrator::{self, RayCounts};
+use strahl::integrator::{self, RayCounts, TileJob};
 use strahl::io::MeshFormat;
-use strahl::io::atomic::directory_of;
+use strahl::io::atomic::{directory_of, write_atomically};
 use strahl::io::exr::{Compression, ExrOptions, Layout};
 use strahl::io::metadata::RenderInfo;
 use strahl::passes::{MAX_CRYPTO_LEVELS, PassSet};
+use strahl::region::Region;
 use strahl::scene::Scene;
 use strahl::scene::file::image_problem;
 
 /// Arguments of `strahl render`.
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// The scene file (TOML; see docs/scene-format.md).
+    /// The scene file (TOML; see docs/scene-format.md), or a glTF file (.gltf, .glb).
     scene: PathBuf,
+    /// Which camera of a glTF file to render through: its index or name [default: the first].
+    #[arg(long, value_name = "NAME|INDEX")]
+    camera: Option<String>,
     /// Where to write the OpenEXR image (linear RGBA, Z, N, albedo).
     #[arg(short, long, value_name = "OUT.exr")]
     output: PathBuf,
@@ -81,6 +94,22 @@ pub struct RenderArgs {
     /// EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a.
     #[arg(long, value_name = "C", default_value = "zip", value_parser = parse_compression)]
     compression: Compression,
+    /// Render only the pixels X0 ≤ x < X1, Y0 ≤ y < Y1 (half-open pixel bounds, (0,0) the
+    /// top-left pixel); the EXR's dataWindow is that region inside the whole displayWindow.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
+    region: Option<String>,
+    /// Render only tile I of N, I from 1 to N: N bands of whole rows, top to bottom, for
+    /// splitting a frame over a farm (`strahl merge` joins the tiles).
+    #[arg(long, value_name = "I/N")]
+    tile: Option<String>,
+    /// Save the finished tiles to OUT.exr.checkpoint every this many seconds (0: after every
+    /// tile); SIGINT and SIGTERM save it too before exiting.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    checkpoint_every: f64,
+    /// Continue from OUT.exr.checkpoint (when it exists): trace only the tiles it lacks. The
+    /// result is the same bytes as an uninterrupted render.
+    #[arg(long)]
+    resume: bool,
 }
 
 /// `--exr-layout`.
@@ -143,7 +172,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
 
-    let mut scene = super::load_scene(&args.scene)?.scene;
+    let mut scene = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?.scene;
     let image = &mut scene.image;
     image.width = args.width.unwrap_or(image.width);
     image.height = args.height.unwrap_or(image.height);
@@ -153,12 +182,33 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("{}: with the command-line settings: {problem}", args.scene.display());
     }
     let image = scene.image;
+    let region = match (&args.region, &args.tile) {
+        (Some(text), _) => {
+            let r = Region::parse(text).map_err(|m| anyhow::anyhow!("--region {m}"))?;
+            if let Some(problem) = r.problem(image.width, image.height) {
+                bail!("{}: --region {problem}", args.scene.display());
+            }
+            r
+        }
+        (None, Some(text)) => Region::parse_split(text, image.width, image.height)
+            .map_err(|m| anyhow::anyhow!("{}: --tile {m}", args.scene.display()))?,
+        (None, None) => Region::full(image.width, image.height),
+    };
     if let Some(passes) = &args.passes {
         scene.output.passes = PassSet::parse(passes).map_err(|m| anyhow::anyhow!("--passes: {m}"))?;
     }
     scene.output.transparent |= args.transparent;
     scene.output.crypto_levels = args.cryptomatte_levels.unwrap_or(scene.output.crypto_levels);
 
+    if !(args.checkpoint_every.is_finite() && args.checkpoint_every >= 0.0) {
+        bail!("--checkpoint-every {} is not a number of seconds (0 or more)", args.checkpoint_every);
+    }
+    let checkpointing = Checkpointing {
+        path: checkpoint::path_for(&args.output),
+        every: Duration::from_secs_f64(args.checkpoint_every),
+        resume: args.resume,
+        key: checkpoint::key(&scene, region, args.backend.name()),
+    };
     let threads = super::thread_count(args.threads.map(|t| t as usize));
     let pool = super::thread_pool(threads)?;
     let Rendered { film, rays, build_seconds, render_seconds } = match args.backend {
@@ -167,14 +217,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             let build_start = Instant::now();
             let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
                 .with_context(|| format!("{}: cannot build Embree's BVH", args.scene.display()))?;
-            render(&pool, &scene, &accel, build_start, &args.scene)?
+            render(&pool, &scene, &accel, region, build_start, &args.scene, &checkpointing)?
         }
         Backend::Native => {
             let build_start = Instant::now();
             let accel = pool
                 .install(|| Bvh::build(&scene))
                 .with_context(|| format!("{}: cannot build the native BVH", args.scene.display()))?;
-            render(&pool, &scene, &accel, build_start, &args.scene)?
+            render(&pool, &scene, &accel, region, build_start, &args.scene, &checkpointing)?
         }
     };
 
@@ -204,10 +254,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("writing {} ...", png.display());
         strahl::io::png::write(&film, args.exposure, png)?;
     }
+    // The output is whole: the checkpoint has served.
+    if checkpointing.path.exists() {
+        std::fs::remove_file(&checkpointing.path).with_context(|| {
+            format!("{}: cannot remove the finished render's checkpoint", checkpointing.path.display())
+        })?;
+    }
     let write_seconds = write_start.elapsed().as_secs_f64();
 
+    let part =
+        if region == Region::full(image.width, image.height) { String::new() } else { format!(", region {region}") };
     println!(
-        "{}: {} × {} pixels, {} spp, max depth {}, {threads} thread{}",
+        "{}: {} × {} pixels{part}, {} spp, max depth {}, {threads} thread{}",
         args.scene.display(),
         image.width,
         image.height,
@@ -241,24 +299,106 @@ struct Rendered {
     render_seconds: f64,
 }
 
-/// Renders `scene` with `accel` (whose build began at `build_start`) on `pool`, with a
-/// progress bar.
+/// Where a render keeps its checkpoint and how ([`strahl::checkpoint`]).
+struct Checkpointing {
+    path: PathBuf,
+    /// Time between two checkpoints (zero: after every tile).
+    every: Duration,
+    resume: bool,
+    key: String,
+}
+
+/// A test hook: `STRAHL_TEST_TILE_DELAY_MS=N` makes every finished tile wait N ms, so that
+/// tests can stop a render at chosen points deterministically (by polling its checkpoint).
+fn tile_delay() -> Option<Duration> {
+    std::env::var("STRAHL_TEST_TILE_DELAY_MS").ok()?.parse().ok().map(Duration::from_millis)
+}
+
+/// Renders `region` of `scene` with `accel` (whose build began at `build_start`) on `pool`,
+/// with a progress bar, resuming from and saving to the checkpoint as `ckpt` says. On SIGINT
+/// or SIGTERM the tiles under way finish, the checkpoint is saved and this fails saying so
+/// (a second SIGINT exits at once).
 fn render<A: Accel>(
     pool: &rayon::ThreadPool,
     scene: &Scene,
     accel: &A,
+    region: Region,
     build_start: Instant,
     path: &Path,
+    ckpt: &Checkpointing,
 ) -> anyhow::Result<Rendered> {
     let build_seconds = build_start.elapsed().as_secs_f64();
-    let image = &scene.image;
-    let bar = Progress::new(image.width as u64 * image.height as u64);
+    let tiles = region.tiles();
+    let mut film = Film::for_region(scene.image.width, scene.image.height, region, &scene.output);
+    let shown = ckpt.path.display();
+    let mut done = Vec::new();
+    if ckpt.path.exists() {
+        if ckpt.resume {
+            let bytes = std::fs::read(&ckpt.path).with_context(|| format!("{shown}: cannot read the checkpoint"))?;
+            done = checkpoint::decode_into(&bytes, &ckpt.path, &ckpt.key, &tiles, &mut film)?;
+            eprintln!("resuming from {shown}: {} of {} tiles done", done.len(), tiles.len());
+        } else {
+            eprintln!("warning: {shown} exists; rendering from the start and replacing it (--resume continues it)");
+        }
+    }
+    let todo: Vec<usize> = (0..tiles.len()).filter(|k| !done.contains(k)).collect();
+    let todo_tiles: Vec<Region> = todo.iter().map(|&k| tiles[k]).collect();
+
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        // A second SIGINT (stop already set) exits at once; the first only sets the flag.
+        signal_hook::flag::register_conditional_shutdown(signal, 1, Arc::clone(&stop))
+            .and_then(|_| signal_hook::flag::register(signal, Arc::clone(&stop)))
+            .context("cannot install the signal handlers")?;
+    }
+    let finished = Mutex::new(done);
+    let last_save = Mutex::new(Instant::now());
+    let save_failed = AtomicBool::new(false);
+    let save = |film: &Mutex<Film>| -> anyhow::Result<usize> {
+        let mut done = finished.lock().unwrap_or_else(|p| p.into_inner()).clone();
+        done.sort_unstable();
+        let bytes = {
+            let film = film.lock().unwrap_or_else(|p| p.into_inner());
+            checkpoint::encode(&film, &tiles, &done, &ckpt.key)
+        };
+        write_atomically(&ckpt.path, &bytes)?;
+        Ok(done.len())
+    };
+    let delay = tile_delay();
+    let on_tile = |k: usize, film: &Mutex<Film>| {
+        finished.lock().unwrap_or_else(|p| p.into_inner()).push(todo[k]);
+        if let Some(d) = delay {
+            std::thread::sleep(d);
+        }
+        // One thread saves at a time; the others go on tracing.
+        let Ok(mut last) = last_save.try_lock() else { return };
+        if last.elapsed() >= ckpt.every {
+            if let Err(e) = save(film) {
+                if !save_failed.swap(true, Ordering::Relaxed) {
+                    eprintln!("warning: cannot save the checkpoint: {e:#}");
+                }
+            }
+            *last = Instant::now();
+        }
+    };
+    let bar = Progress::new(region.pixel_count());
+    bar.inc(tiles.iter().zip(0..).filter(|(_, k)| !todo.contains(k)).map(|(t, _)| t.pixel_count()).sum());
     let render_start = Instant::now();
+    let progress = |done| bar.inc(done);
+    let job = TileJob { tiles: &todo_tiles, stop: Some(&stop), progress: &progress, on_tile: &on_tile };
     let (film, rays) = pool
-        .install(|| integrator::render(scene, accel, &|done| bar.inc(done)))
+        .install(|| integrator::render_tiles(scene, accel, film, &job))
         .with_context(|| format!("{}: rendering failed", path.display()))?;
     let render_seconds = render_start.elapsed().as_secs_f64();
     bar.finish();
+    if stop.load(Ordering::Relaxed) {
+        let film = Mutex::new(film);
+        let saved = save(&film)?;
+        bail!(
+            "interrupted: {saved} of {} tiles saved in {shown}; run the same command with --resume to continue",
+            tiles.len()
+        );
+    }
     Ok(Rendered { film, rays, build_seconds, render_seconds })
 }
 

@@ -13,6 +13,7 @@
 //! difference inside this module.
 
 mod device;
+mod instance;
 pub mod raw_bench;
 mod scene;
 pub mod sys;
@@ -56,10 +57,14 @@ impl Error {
 }
 
 /// A whole strahl scene traced by Embree: meshes as triangle geometries with ids equal to their
-/// index, the spheres as one user geometry with id `meshes.len()`, and the planes (unbounded,
-/// so outside the BVH) tested first to shorten every ray.
+/// index, the spheres as one user geometry with id `meshes.len()`, instances as instance
+/// geometries of one scene per prototype (ids from `meshes.len() + 2`, see `instance.rs`),
+/// and the planes (unbounded, so outside the BVH) tested first to shorten every ray.
 pub struct EmbreeAccel {
     scene: Scene,
+    /// One committed scene per prototype of `crate::scene::Scene::prototypes`, instanced in
+    /// `scene` (kept for as long as the top scene, though Embree holds its own references).
+    _prototypes: Vec<Scene>,
     planes: Vec<Plane>,
     planes_geom_id: u32,
 }
@@ -76,7 +81,22 @@ impl EmbreeAccel {
         }
         debug_assert_eq!(builder.next_geom_id(), scene.spheres_geom_id());
         builder.add_spheres("spheres", &scene.spheres)?;
+        if let Some((object, problem)) = scene.instances_problem() {
+            return Err(Error::InvalidInput { object, problem });
+        }
+        let mut prototypes = Vec::with_capacity(scene.prototypes.len());
+        for mesh in &scene.prototypes {
+            let mut proto = SceneBuilder::new(device, options)?;
+            proto.add_triangle_mesh(&mesh.name, &mesh.positions, &mesh.indices)?;
+            prototypes.push(proto.commit()?);
+        }
+        for (k, inst) in scene.instances.iter().enumerate() {
+            let affine = inst.transform.affine();
+            let m = glam::Affine3A::from_mat3_translation(affine.matrix3.as_mat3(), affine.translation.as_vec3());
+            builder.add_instance(scene.instance_geom_id(k), &prototypes[inst.prototype as usize], &m)?;
+        }
         Ok(EmbreeAccel {
+            _prototypes: prototypes,
             scene: builder.commit()?,
             planes: scene.planes.clone(),
             planes_geom_id: scene.planes_geom_id(),

@@ -93,12 +93,12 @@ impl Default for BuildOptions {
 /// Every input is validated before it reaches Embree: out-of-range indices would make Embree
 /// read out of bounds, and non-finite data would corrupt its BVH.
 pub struct SceneBuilder {
-    device: Device,
-    raw: sys::RTCScene,
+    pub(super) device: Device,
+    pub(super) raw: sys::RTCScene,
     // Boxed: Embree keeps a raw pointer to each set, which must not move when the Vec grows.
     #[allow(clippy::vec_box, reason = "Embree holds pointers to the boxed sets")]
     sphere_sets: Vec<Box<SphereSet>>,
-    next_id: u32,
+    pub(super) next_id: u32,
     panic_in_callbacks: bool,
 }
 
@@ -227,7 +227,7 @@ impl SceneBuilder {
         self.panic_in_callbacks = true;
     }
 
-    fn attach(&mut self, geometry: Geometry, id: u32) -> Result<(), Error> {
+    pub(super) fn attach(&mut self, geometry: Geometry, id: u32) -> Result<(), Error> {
         // SAFETY: both handles are live; the scene takes its own reference to the geometry,
         // and `Geometry`'s drop releases ours.
         unsafe {
@@ -263,7 +263,7 @@ impl Drop for SceneBuilder {
 }
 
 /// A geometry handle released on drop (the scene it is attached to keeps its own reference).
-struct Geometry(sys::RTCGeometry);
+pub(super) struct Geometry(pub(super) sys::RTCGeometry);
 
 impl Drop for Geometry {
     fn drop(&mut self) {
@@ -290,7 +290,7 @@ impl Device {
 
 /// A committed, immutable Embree scene, safe to query from many threads at once.
 pub struct Scene {
-    raw: sys::RTCScene,
+    pub(super) raw: sys::RTCScene,
     // Read by the sphere callbacks through Embree's user pointers: dropped after `raw` is
     // released (see `Drop`), never moved (boxed), never mutated.
     #[expect(dead_code, reason = "read by Embree's callbacks through raw user pointers")]
@@ -448,7 +448,7 @@ impl Scene {
                 ng: Vec3::new(h.Ng_x[lane], h.Ng_y[lane], h.Ng_z[lane]),
                 u: h.u[lane],
                 v: h.v[lane],
-                geom_id: h.geomID[lane],
+                geom_id: super::instance::hit_geom_id(h.geomID[lane], h.instID[0][lane]),
                 prim_id: h.primID[lane],
             });
         }
@@ -515,7 +515,7 @@ fn to_hit(rh: &sys::RTCRayHit) -> Option<Hit> {
         ng: Vec3::new(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z),
         u: rh.hit.u,
         v: rh.hit.v,
-        geom_id: rh.hit.geomID,
+        geom_id: super::instance::hit_geom_id(rh.hit.geomID, rh.hit.instID[0]),
         prim_id: rh.hit.primID,
     })
 }

@@ -31,6 +31,16 @@ pub fn directory_of(path: &Path) -> &Path {
 
 /// Writes `bytes` to `path` atomically: either the whole file appears, or nothing changes.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
+    write_atomically_with(path, |file| file.write_all(bytes))
+}
+
+/// Like [`write_atomically`], with the contents streamed by `write` into the temporary file
+/// (buffered; it may seek, to patch what it wrote), so that a large file never has to be
+/// whole in memory.
+pub fn write_atomically_with(
+    path: &Path,
+    write: impl FnOnce(&mut io::BufWriter<fs::File>) -> io::Result<()>,
+) -> Result<(), WriteError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let dir = directory_of(path);
     let name = path.file_name().ok_or_else(|| WriteError::new(path, "is not a file name"))?;
@@ -41,15 +51,16 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     let (file, tmp) = loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let tmp = dir.join(format!(".{}.{}.{n}.tmp", name.to_string_lossy(), std::process::id()));
-        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+        match OpenOptions::new().read(true).write(true).create_new(true).open(&tmp) {
             Ok(file) => break (file, tmp),
             Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => continue,
             Err(e) => return Err(WriteError::new(path, format!("cannot create a file in {}: {e}", dir.display()))),
         }
     };
     let result = (|| -> io::Result<()> {
-        let mut file = file;
-        file.write_all(bytes)?;
+        let mut buffered = io::BufWriter::with_capacity(1 << 20, file);
+        write(&mut buffered)?;
+        let file = buffered.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
         drop(file);
         fs::rename(&tmp, path)

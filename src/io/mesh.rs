@@ -16,9 +16,9 @@
 //! area is an **error**, not an empty mesh: a renderer given a mesh that draws nothing almost
 //! certainly got the wrong file, and saying so at load time beats a silently empty image.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::read::{self, ReadError};
 use crate::material::Material;
 use crate::math::{Vec2, Vec3};
 use crate::scene::Mesh;
@@ -65,13 +65,11 @@ impl LoadedMesh {
 /// `path: problem`.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file could not be read: missing, not a regular file, over the size limit, or
+    /// corrupt or oversized gzip (see [`super::read`]). The OS error is part of the message,
+    /// not a separate source, so that it is printed once.
+    #[error("{}: {problem}", path.display())]
+    Io { path: PathBuf, problem: ReadError },
     /// A problem at a line of a text file (OBJ, MTL, ASCII PLY and any PLY header).
     #[error("{}:{line}: {problem}", path.display())]
     AtLine { path: PathBuf, line: usize, problem: String },
@@ -131,16 +129,15 @@ pub fn load_mesh(path: &Path, options: &MeshOptions) -> Result<LoadedMesh, MeshE
     }
 }
 
-/// The bytes of the file at `path`, decompressed when they start with the gzip magic number.
+/// The bytes of the mesh (or MTL) file at `path`, decompressed when they start with the gzip
+/// magic number; only a regular file, and at most [`read::max_mesh_bytes`] bytes before and
+/// after decompression (see [`super::read`]).
 pub fn read_file(path: &Path) -> Result<Vec<u8>, MeshError> {
-    let io = |source| MeshError::Io { path: path.to_owned(), source };
-    let raw = std::fs::read(path).map_err(io)?;
-    if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut data = Vec::with_capacity(raw.len() * 4);
-        flate2::read::MultiGzDecoder::new(&raw[..])
-            .read_to_end(&mut data)
-            .map_err(|e| MeshError::invalid(path, format!("corrupt gzip data: {e}")))?;
-        Ok(data)
+    let io = |problem| MeshError::Io { path: path.to_owned(), problem };
+    let cap = read::max_mesh_bytes().map_err(io)?;
+    let raw = read::read_regular(path, cap, read::MESH_LIMIT_HINT).map_err(io)?;
+    if read::is_gzip(&raw) {
+        read::inflate(&raw, cap).map_err(io)
     } else if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
         Err(MeshError::invalid(path, "named .gz but not gzip-compressed"))
     } else {

@@ -75,7 +75,7 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
     if fixed_date.is_none() {
         let t = info.render_seconds;
         out.push(("renderTimeSeconds".into(), Attribute::Float(t as f32)));
-        out.push(("RenderTime".into(), text(&format!("{:02}:{:05.2}", (t / 60.0).floor(), t % 60.0))));
+        out.push(("RenderTime".into(), text(&render_time_text(t))));
     }
     if let Ok(camera) = Camera::new(&scene.camera, scene.image.width, scene.image.height) {
         let (to_camera, to_ndc) = camera_matrices(&camera);
@@ -83,6 +83,11 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         out.push(("worldToNDC".into(), Attribute::Matrix(to_ndc)));
     }
     out
+}
+
+/// `seconds` as Blender writes `RenderTime`: `MM:SS.ss`.
+pub fn render_time_text(seconds: f64) -> String {
+    format!("{:02}:{:05.2}", (seconds / 60.0).floor(), seconds % 60.0)
 }
 
 /// `worldToCamera` and `worldToNDC` of `camera` as the module docs define them, row-major

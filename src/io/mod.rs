@@ -3,12 +3,15 @@
 
 pub mod atomic;
 pub mod exr;
+mod exr_zip;
+pub mod gltf;
 pub mod mesh;
 pub mod metadata;
 pub mod obj;
 pub mod ply;
 pub mod png;
 pub mod polygon;
+pub mod read;
 mod text;
 
 pub use atomic::{WriteError, write_atomically};

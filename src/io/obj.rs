@@ -28,7 +28,8 @@
 //! | `d a` / `Tr t` (`d` wins; `Tr` = 1 − `d`) | `transmission` = 1 − d (grey) when d < 1 |
 //! | `Tf r g b` | `transmission` of glass (illum 4, 6, 7, 9) |
 //! | `Ke r g b` | `emission` |
-//! | `Ka`, `map_*`, `bump`, `disp`, `refl`, … | ignored (ambient is the scene's; textures are not supported: one warning) |
+//! | `map_Kd file` | `diffuse` = the image ([`crate::texture`]: sRGB-decoded, bilinear, repeating) times `Kd` (1 when not given); the file relative to the MTL file's folder; missing or not an image: an error at its line; with options (`-s`, `-o`, …): ignored with the warning below |
+//! | `Ka`, other `map_*`, `bump`, `disp`, `refl`, … | ignored (ambient is the scene's; one warning) |
 //!
 //! | `illum` | meaning in strahl |
 //! |---|---|
@@ -354,7 +355,8 @@ impl<'p> Reader<'p> {
                 ));
             }
             for file in files {
-                let data = std::fs::read(&file).map_err(|source| MeshError::Io { path: file.clone(), source })?;
+                // A library that cannot be read is an error at the `mtllib` line naming it.
+                let data = super::mesh::read_file(&file).map_err(|e| MeshError::at(path, *line, e.to_string()))?;
                 for m in parse_mtl(&file, &data, &mut warnings)? {
                     match by_name.get(&m.name) {
                         Some(&i) => materials[i as usize] = m,
@@ -427,13 +429,14 @@ fn default_name(path: &Path) -> String {
 }
 
 /// The MTL files an `mtllib` statement names: the whole text as one file name (names may
-/// contain spaces), else each whitespace-separated name that exists.
+/// contain spaces), else each whitespace-separated name that exists. Something that exists but
+/// is not a regular file (a FIFO, a directory) is returned too: reading it says what it is.
 fn library_files(dir: &Path, names: &str) -> Vec<PathBuf> {
     let whole = dir.join(names);
-    if whole.is_file() {
+    if whole.exists() {
         return vec![whole];
     }
-    names.split_whitespace().map(|n| dir.join(n)).filter(|p| p.is_file()).collect()
+    names.split_whitespace().map(|n| dir.join(n)).filter(|p| p.exists()).collect()
 }
 
 /// Turns one group's corner triangles into a mesh over its own vertices. Without any `vt`/`vn`
@@ -519,6 +522,7 @@ struct MtlBlock {
     d: Option<f32>,
     tr: Option<f32>,
     illum: Option<i64>,
+    map_kd: Option<std::sync::Arc<crate::texture::Image>>,
 }
 
 impl MtlBlock {
@@ -536,7 +540,15 @@ impl MtlBlock {
         };
         Material {
             name: self.name.clone(),
-            diffuse: Texture::Constant(self.kd.unwrap_or(Vec3::splat(0.8))),
+            diffuse: match &self.map_kd {
+                Some(image) => Texture::Image(crate::texture::ImageTexture {
+                    image: image.clone(),
+                    wrap_u: crate::texture::Wrap::Repeat,
+                    wrap_v: crate::texture::Wrap::Repeat,
+                    factor: self.kd.unwrap_or(Vec3::ONE),
+                }),
+                None => Texture::Constant(self.kd.unwrap_or(Vec3::splat(0.8))),
+            },
             specular: if illum <= 1 || mirror { Vec3::ZERO } else { ks },
             shininess: self.ns.unwrap_or(0.0),
             mirror: if mirror { ks } else { Vec3::ZERO },
@@ -613,6 +625,11 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
                 block.illum = Some(parse_i64(w).ok_or_else(|| at(format!("illum '{}' is not an integer", show(w))))?);
             }
             b"Ka" => {}
+            b"map_Kd" if !rest_of(line, keyword).starts_with(b"-") && !rest_of(line, keyword).is_empty() => {
+                let name = String::from_utf8_lossy(rest_of(line, keyword)).into_owned();
+                let file = path.parent().unwrap_or(Path::new("")).join(&name);
+                block.map_kd = Some(crate::texture::open_shared(&file).map_err(|e| at(format!("map_Kd: {e}")))?);
+            }
             other => {
                 let other = show(other);
                 if !ignored.iter().any(|(k, _)| *k == other) {
@@ -691,7 +708,7 @@ mod tests {
         let mtl = "newmtl plain\nKd 0.5 0.25 1\nKs 0\nNs 20\n\
                    newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.95 0.95 0.95\nillum 5\n\
                    newmtl glass\nKs 0.3 0.3 0.3\nTf 0.1 0.1 0.1\nNi 2.5\nillum 7\n\
-                   newmtl lamp\nKe 17 12 4\nd 0.25\nmap_Kd x.png\n";
+                   newmtl lamp\nKe 17 12 4\nd 0.25\nmap_Kd -s 2 2 x.png\n";
         let mut w = vec![];
         let m = parse_mtl(Path::new("t.mtl"), mtl.as_bytes(), &mut w).unwrap();
         assert_eq!(m[0].diffuse, Texture::Constant(Vec3::new(0.5, 0.25, 1.0)));

@@ -513,6 +513,19 @@ fn read_ascii(
             let cap = e.count.min(body.len() / 6);
             *vertices = Vertices::with_capacity(plan.expect("a vertex element has a plan"), cap);
         }
+        // Each item is a line of at least one byte: a count the rest of the file cannot hold is
+        // refused before its loop runs.
+        let remaining = body.len() - scan.pos;
+        if e.count > remaining {
+            return Err(MeshError::at(
+                path,
+                e.line,
+                format!(
+                    "element '{}' declares {} items, but only {remaining} bytes remain (each needs a line)",
+                    e.name, e.count
+                ),
+            ));
+        }
         if is_face {
             faces.sizes.reserve(e.count.min(body.len() / 6));
             faces.corners.reserve(3 * e.count.min(body.len() / 6));
@@ -659,7 +672,29 @@ fn read_binary(
                 Kind::List { count, .. } => count.size(),
             })
             .sum();
-        let fits = (body.len() - bin.pos) / min_size.max(1);
+        // Every element's count is checked against the bytes left before its loop runs, so no
+        // loop's count comes from the header alone. An item of no bytes at all (an element
+        // without properties) cannot be checked, and means nothing: refused when there are any.
+        let remaining = body.len() - bin.pos;
+        if min_size == 0 && e.count > 0 {
+            return Err(MeshError::at(
+                path,
+                e.line,
+                format!("element '{}' has {} items but no properties (nothing to read)", e.name, e.count),
+            ));
+        }
+        let fits = remaining / min_size.max(1);
+        if e.count > fits {
+            return Err(MeshError::at(
+                path,
+                e.line,
+                format!(
+                    "element '{}' declares {} items of at least {min_size} bytes each, but only {remaining} bytes \
+                     remain (truncated or corrupt binary PLY)",
+                    e.name, e.count
+                ),
+            ));
+        }
         if e.name == "vertex" {
             *vertices = Vertices::with_capacity(plan.expect("a vertex element has a plan"), e.count.min(fits));
         }

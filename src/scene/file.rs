@@ -23,6 +23,7 @@ pub use objects::ObjectSummary;
 use objects::{ObjectContext, ObjectFile};
 
 use super::{CameraSpec, ImageSpec, Scene};
+use crate::io::read::{MAX_SCENE_BYTES, ReadError, read_regular};
 use crate::light::Light;
 use crate::material::{Material, Texture};
 use crate::math::Vec3;
@@ -36,9 +37,11 @@ pub const MAX_PIXELS: u64 = 1 << 26;
 /// Why a scene file could not be loaded. Displays as one line naming the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The file could not be read.
-    #[error("{}: cannot read the scene: {source}", path.display())]
-    Read { path: PathBuf, source: std::io::Error },
+    /// The file could not be read: missing, not a regular file, larger than
+    /// [`MAX_SCENE_BYTES`] (see [`crate::io::read`]). The OS error is part of the message, not a
+    /// separate source, so that it is printed once.
+    #[error("{}: cannot read the scene: {problem}", path.display())]
+    Read { path: PathBuf, problem: ReadError },
     /// A problem at a place in the file (1-based line and column, in characters).
     #[error("{}:{line}:{column}: {message}", path.display())]
     At { path: PathBuf, line: usize, column: usize, message: String },
@@ -62,10 +65,19 @@ pub struct Loaded {
     pub objects: Vec<ObjectSummary>,
 }
 
-/// Loads the scene file at `path`, and the mesh files it names.
+/// Loads the scene file at `path`, and the mesh files it names. Only a regular file of at most
+/// [`MAX_SCENE_BYTES`] is read.
 pub fn load(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read { path: path.into(), source })?;
+    let bytes =
+        read_regular(path, MAX_SCENE_BYTES, "").map_err(|problem| SceneError::Read { path: path.into(), problem })?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let offset = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let valid = std::str::from_utf8(&bytes[..offset]).unwrap_or_default();
+        let (line, column) = line_column(valid, offset);
+        SceneError::At { path: path.into(), line, column, message: "not UTF-8 text (TOML is UTF-8)".into() }
+    })?;
     from_toml_str(&text, path)
 }
 
@@ -394,8 +406,17 @@ impl SceneFile {
             scene.lights.push(l);
         }
         let (mut warnings, mut objects) = (Vec::new(), Vec::new());
+        let instanced = self.objects.iter().filter_map(|o| o.get_ref().instance_of()).collect();
+        let placements = std::cell::RefCell::new(BTreeMap::new());
         for (i, object) in self.objects.iter().enumerate() {
-            let ctx = ObjectContext { span: object.span(), index: i, materials: &material_ids, base };
+            let ctx = ObjectContext {
+                span: object.span(),
+                index: i,
+                materials: &material_ids,
+                base,
+                instanced: &instanced,
+                placements: &placements,
+            };
             let o = object.get_ref();
             let (summary, object_warnings) = o.add_to(&mut scene, &ctx).map_err(|p| prefix(p, &o.label(i)))?;
             warnings.extend(object_warnings.into_iter().map(|w| prefix(w, &o.label(i))));

@@ -30,6 +30,13 @@ impl std::fmt::Write for Fnv1a {
     }
 }
 
+/// 64-bit FNV-1a of `bytes` (a checksum for strahl's own files, e.g. checkpoints).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h = Fnv1a(0xcbf2_9ce4_8422_2325);
+    h.bytes(bytes);
+    h.0
+}
+
 /// The fingerprint of `scene` (see the module docs).
 pub fn scene_hash(scene: &Scene) -> u64 {
     let mut h = Fnv1a(0xcbf2_9ce4_8422_2325);

@@ -3,16 +3,20 @@
 //!
 //! Loading a scene file ([`load`]: TOML, and the OBJ and PLY files it names) produces a
 //! [`Scene`], with the warnings to show and a summary of each object ([`Loaded`]); so does a
-//! lone mesh file ([`from_mesh_file`]). Nothing downstream knows which file format the
+//! lone mesh file ([`from_mesh_file`]) and a lone glTF file ([`from_gltf_file`]). Nothing downstream knows which file format the
 //! geometry came from.
 
 pub mod file;
+pub mod gltf;
 pub mod hash;
+pub mod instance;
 pub mod mesh;
 pub mod procedural;
 pub mod transform;
 
 pub use file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};
+pub use gltf::from_gltf_file;
+pub use instance::Instance;
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};
@@ -78,6 +82,8 @@ pub enum GeomKind {
     Spheres,
     /// The scene's planes; the hit's `prim_id` indexes `Scene::planes`.
     Planes,
+    /// `Scene::instances[i]`; the hit's `prim_id` is the triangle of its prototype.
+    Instance(u32),
 }
 
 /// A whole scene in world space.
@@ -94,6 +100,11 @@ pub struct Scene {
     pub names: ObjectNames,
     /// Passes, alpha and Cryptomatte levels (the `[output]` table).
     pub output: crate::passes::OutputSpec,
+    /// Meshes stored once in their own object space, placed by [`Self::instances`] (not
+    /// traced themselves).
+    pub prototypes: Vec<Mesh>,
+    /// Placements of the prototypes (see [`instance`]).
+    pub instances: Vec<Instance>,
 }
 
 /// The object names of a scene's primitives, filled by the scene loader: `meshes[i]` names
@@ -118,14 +129,59 @@ impl Scene {
         self.meshes.len() as u32 + 1
     }
 
+    /// The geometry id of hits on instance `k`: past the planes.
+    pub fn instance_geom_id(&self, k: usize) -> u32 {
+        self.meshes.len() as u32 + 2 + k as u32
+    }
+
     /// Which object a hit's `geom_id` names (see [`crate::accel::Hit`]).
     pub fn geom_kind(&self, geom_id: u32) -> GeomKind {
         let m = self.meshes.len() as u32;
         match geom_id {
             id if id < m => GeomKind::Mesh(id),
             id if id == m => GeomKind::Spheres,
-            _ => GeomKind::Planes,
+            id if id == m + 1 => GeomKind::Planes,
+            id => GeomKind::Instance(id - m - 2),
         }
+    }
+
+    /// The world-space corners of triangle `prim` of a mesh or instance hit's object.
+    pub fn world_triangle(&self, kind: GeomKind, prim: usize) -> Option<[Vec3; 3]> {
+        match kind {
+            GeomKind::Mesh(m) => Some(self.meshes[m as usize].triangle(prim)),
+            GeomKind::Instance(k) => {
+                let inst = &self.instances[k as usize];
+                Some(inst.corners(&self.prototypes[inst.prototype as usize], prim))
+            }
+            _ => None,
+        }
+    }
+
+    /// Triangles stored once in the prototypes.
+    pub fn prototype_triangle_count(&self) -> usize {
+        self.prototypes.iter().map(|m| m.indices.len()).sum()
+    }
+
+    /// Triangles the instances place in the world (each prototype counted once per instance).
+    pub fn instanced_triangle_count(&self) -> usize {
+        self.instances.iter().map(|i| self.prototypes[i.prototype as usize].indices.len()).sum()
+    }
+
+    /// Why an instance cannot be traced, if one cannot: a prototype or material that does not
+    /// exist, or a prototype mesh that is not traceable.
+    pub fn instances_problem(&self) -> Option<(String, String)> {
+        if let Some((m, p)) = self.prototypes.iter().find_map(|m| m.problem().map(|e| (m, e))) {
+            return Some((format!("prototype '{}'", m.name), p));
+        }
+        self.instances.iter().enumerate().find_map(|(k, inst)| {
+            let object = format!("instance {k} '{}'", inst.name);
+            if inst.prototype as usize >= self.prototypes.len() {
+                return Some((object, format!("prototype {} does not exist", inst.prototype)));
+            }
+            inst.material
+                .filter(|&m| m as usize >= self.materials.len())
+                .map(|m| (object, format!("material {m} does not exist")))
+        })
     }
 
     /// The object name of mesh `i` (see [`ObjectNames`]).
@@ -143,15 +199,17 @@ impl Scene {
         self.names.planes.get(i).cloned().unwrap_or_else(|| format!("plane {i}"))
     }
 
-    /// Total triangle count over all meshes.
+    /// Total triangle count over all meshes (not the prototypes of instances).
     pub fn triangle_count(&self) -> usize {
         self.meshes.iter().map(|m| m.indices.len()).sum()
     }
 
-    /// Bounds of the meshes and spheres (planes are unbounded and left out).
+    /// Bounds of the meshes, spheres and instances (planes are unbounded and left out).
     pub fn bounds(&self) -> Aabb {
         let meshes = self.meshes.iter().map(|m| m.bounds());
         let spheres = self.spheres.iter().map(|s| s.bounds());
-        meshes.chain(spheres).fold(Aabb::EMPTY, Aabb::union)
+        let proto: Vec<Aabb> = self.prototypes.iter().map(Mesh::bounds).collect();
+        let instances = self.instances.iter().map(|i| i.bounds(proto[i.prototype as usize]));
+        meshes.chain(spheres).chain(instances).fold(Aabb::EMPTY, Aabb::union)
     }
 }

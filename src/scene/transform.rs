@@ -5,17 +5,21 @@
 //! in degrees), then moved by `T`. Normals are transformed with the inverse transpose of the
 //! linear part, `(R·S)⁻ᵀ`, which keeps them perpendicular to the transformed surface under a
 //! non-uniform scale. Composed in f64 and rounded to f32 once.
+//!
+//! glTF nodes give their transform as a general affine matrix ([`Transform::from_matrix`]),
+//! and nested nodes and glTF objects placed in a TOML scene compose transforms
+//! ([`Transform::then`]).
 
-use glam::{DMat3, DVec3};
+use glam::{DAffine3, DMat3, DMat4, DVec3};
 
 use super::Mesh;
 use crate::geometry::{Plane, Sphere};
 use crate::math::Vec3;
 
-/// An affine transform `p ↦ linear·p + translation` built from scale, rotation and translation.
+/// An affine transform `p ↦ linear·p + translation` built from scale, rotation and translation
+/// (or from a matrix).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
-    scale: DVec3,
     linear: DMat3,
     /// `linear⁻ᵀ`, for normals.
     normal_matrix: DMat3,
@@ -37,7 +41,47 @@ impl Transform {
             * DMat3::from_rotation_y(rotate_deg.y.to_radians())
             * DMat3::from_rotation_x(rotate_deg.x.to_radians());
         let linear = rotation * DMat3::from_diagonal(scale);
-        Transform { scale, linear, normal_matrix: linear.inverse().transpose(), translation: translate }
+        Transform { linear, normal_matrix: linear.inverse().transpose(), translation: translate }
+    }
+
+    /// The affine transform of a 4×4 matrix (column vectors, `p' = M·(p, 1)`), or why it is
+    /// not one: a bottom row other than `(0, 0, 0, 1)`, a non-finite entry, or a singular
+    /// linear part (it would flatten the object and has no inverse for normals).
+    pub fn from_matrix(m: DMat4) -> Result<Self, String> {
+        if !m.is_finite() {
+            return Err("the matrix has a non-finite entry".into());
+        }
+        if m.row(3) != glam::DVec4::W {
+            return Err(format!("the matrix's bottom row {} is not (0, 0, 0, 1)", m.row(3)));
+        }
+        let linear = DMat3::from_mat4(m);
+        let det = linear.determinant();
+        let size = linear.x_axis.length() * linear.y_axis.length() * linear.z_axis.length();
+        if !(det.abs() > 1e-12 * size) || size == 0.0 {
+            return Err("the matrix is singular (a zero scale)".into());
+        }
+        Ok(Transform { linear, normal_matrix: linear.inverse().transpose(), translation: m.w_axis.truncate() })
+    }
+
+    /// `outer ∘ self`: first this transform, then `outer` (a child node's transform, then its
+    /// parent's).
+    pub fn then(&self, outer: &Transform) -> Transform {
+        let linear = outer.linear * self.linear;
+        Transform {
+            linear,
+            normal_matrix: linear.inverse().transpose(),
+            translation: outer.linear * self.translation + outer.translation,
+        }
+    }
+
+    /// The transform as an f64 affine map (object to world).
+    pub fn affine(&self) -> DAffine3 {
+        DAffine3 { matrix3: self.linear, translation: self.translation }
+    }
+
+    /// The transformed direction (linear part only), not normalised, in f64.
+    pub fn vector_f64(&self, v: DVec3) -> DVec3 {
+        self.linear * v
     }
 
     /// Whether this transform changes nothing.
@@ -65,12 +109,15 @@ impl Transform {
         self.normal_f64(n.as_dvec3()).as_vec3()
     }
 
-    /// The factor every length is multiplied by, if the scale is the same along every axis
-    /// (up to sign: a mirror image of a sphere is a sphere).
+    /// The factor every length is multiplied by, if the transform scales every direction by
+    /// the same factor (`Lᵀ·L = k²·I`, up to sign: a mirror image of a sphere is a sphere).
     pub fn uniform_scale(&self) -> Option<f64> {
-        let a = self.scale.abs();
-        let tolerance = 1e-9 * a.max_element();
-        ((a.x - a.y).abs() <= tolerance && (a.y - a.z).abs() <= tolerance).then_some(a.x)
+        let g = self.linear.transpose() * self.linear;
+        let k2 = g.x_axis.x.max(g.y_axis.y).max(g.z_axis.z);
+        let tolerance = 2e-9 * k2;
+        let expected = DMat3::from_diagonal(DVec3::splat(k2));
+        let off = (g - expected).to_cols_array().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        (off <= tolerance).then(|| k2.sqrt())
     }
 
     /// Whether the transform mirrors (negative determinant): triangles must then swap two
@@ -103,9 +150,12 @@ impl Transform {
     /// The transformed sphere, or why it is not a sphere any more (a non-uniform scale).
     pub fn apply_to_sphere(&self, s: &Sphere) -> Result<Sphere, String> {
         let k = self.uniform_scale().ok_or_else(|| {
+            let l = &self.linear;
             format!(
                 "a sphere cannot take the non-uniform scale [{}, {}, {}] (it would become an ellipsoid)",
-                self.scale.x, self.scale.y, self.scale.z
+                l.x_axis.length(),
+                l.y_axis.length(),
+                l.z_axis.length()
             )
         })?;
         Ok(Sphere { center: self.point(s.center), radius: (k * s.radius as f64) as f32, material: s.material })

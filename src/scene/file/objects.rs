@@ -1,10 +1,11 @@
 //! The `[[objects]]` of a scene file: spheres, planes, inline triangles, seeded random sphere
-//! fields and mesh files (OBJ, PLY), each with a material by name and a transform.
+//! fields, mesh files (OBJ, PLY) and glTF files, each with a material by name and a transform.
 //!
 //! One flat table type with a `type` key rather than a serde-tagged enum, because a tagged
 //! enum buffers its content and loses the spans; the keys a type does not take are rejected
 //! by hand ([`ObjectKind::fields`]).
 
+use std::cell::RefCell;
 use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -18,7 +19,7 @@ use crate::geometry::Sphere;
 use crate::io::{MeshError, MeshOptions, load_mesh};
 use crate::math::{Aabb, Vec3};
 use crate::scene::transform::Transform;
-use crate::scene::{Mesh, Scene, procedural};
+use crate::scene::{Instance, Mesh, Scene, procedural};
 
 #[derive(Deserialize, Clone, Copy, Debug, PartialEq)]
 #[serde(rename_all = "snake_case")]
@@ -28,6 +29,8 @@ enum ObjectKind {
     Triangles,
     RandomSpheres,
     Mesh,
+    Gltf,
+    Instance,
 }
 
 impl ObjectKind {
@@ -38,6 +41,8 @@ impl ObjectKind {
             ObjectKind::Triangles => "triangles",
             ObjectKind::RandomSpheres => "random_spheres",
             ObjectKind::Mesh => "mesh",
+            ObjectKind::Gltf => "gltf",
+            ObjectKind::Instance => "instance",
         }
     }
 
@@ -64,6 +69,8 @@ impl ObjectKind {
                 "radii",
             ],
             ObjectKind::Mesh => &["name", "material", "translate", "rotate_deg", "scale", "path", "smooth_normals"],
+            ObjectKind::Gltf => &["name", "material", "translate", "rotate_deg", "scale", "path"],
+            ObjectKind::Instance => &["name", "material", "translate", "rotate_deg", "scale", "of"],
         }
     }
 }
@@ -97,6 +104,8 @@ pub(super) struct ObjectFile {
     seed: Option<Spanned<u64>>,
     bounds: Option<Spanned<[V3; 2]>>,
     radii: Option<Spanned<[f64; 2]>>,
+    // instance
+    of: Option<Spanned<String>>,
     // mesh
     path: Option<Spanned<String>>,
     smooth_normals: Option<Spanned<bool>>,
@@ -114,7 +123,7 @@ impl ObjectFile {
             };
         }
         collect!(name, material, materials, translate, rotate_deg, scale, center, radius, normal, distance, point);
-        collect!(positions, indices, normals, colors, count, seed, bounds, radii, path, smooth_normals);
+        collect!(positions, indices, normals, colors, count, seed, bounds, radii, path, smooth_normals, of);
         present
     }
 }
@@ -125,6 +134,11 @@ pub(super) struct ObjectContext<'a> {
     pub(super) index: usize,
     pub(super) materials: &'a BTreeMap<&'a str, u32>,
     pub(super) base: &'a Path,
+    /// Names of the objects that `instance` objects place again: their meshes are stored
+    /// once, as prototypes.
+    pub(super) instanced: &'a BTreeSet<String>,
+    /// The prototypes each such object placed, with their transform within the object.
+    pub(super) placements: &'a RefCell<BTreeMap<String, Vec<(u32, Transform)>>>,
 }
 
 impl ObjectContext<'_> {
@@ -143,7 +157,7 @@ impl ObjectContext<'_> {
 pub struct ObjectSummary {
     /// The object's `name`, if it has one.
     pub name: Option<String>,
-    /// Its `type`: `sphere`, `plane`, `triangles`, `random_spheres` or `mesh`.
+    /// Its `type`: `sphere`, `plane`, `triangles`, `random_spheres`, `mesh` or `gltf`.
     pub kind: &'static str,
     /// The file a `mesh` object loaded, resolved against the scene file's folder.
     pub file: Option<PathBuf>,
@@ -161,17 +175,29 @@ impl ObjectSummary {
     /// (meshes, spheres, planes).
     fn of(
         scene: &Scene,
-        before: (usize, usize, usize),
+        before: (usize, usize, usize, usize),
         name: Option<String>,
         kind: &'static str,
         report: &FileReport,
     ) -> ObjectSummary {
-        let (meshes, spheres, planes) = before;
+        let (meshes, spheres, planes, instances) = before;
         let mut used = BTreeSet::new();
         for m in &scene.meshes[meshes..] {
             match &m.triangle_materials {
                 Some(per_triangle) => used.extend(per_triangle.iter().copied()),
                 None => {
+                    used.insert(m.material);
+                }
+            }
+        }
+        for inst in &scene.instances[instances..] {
+            let m = &scene.prototypes[inst.prototype as usize];
+            match (inst.material, &m.triangle_materials) {
+                (Some(id), _) => {
+                    used.insert(id);
+                }
+                (None, Some(per_triangle)) => used.extend(per_triangle.iter().copied()),
+                (None, None) => {
                     used.insert(m.material);
                 }
             }
@@ -182,7 +208,11 @@ impl ObjectSummary {
             name,
             kind,
             file: report.file.clone(),
-            triangles: scene.meshes[meshes..].iter().map(|m| m.indices.len()).sum(),
+            triangles: scene.meshes[meshes..].iter().map(|m| m.indices.len()).sum::<usize>()
+                + scene.instances[instances..]
+                    .iter()
+                    .map(|i| scene.prototypes[i.prototype as usize].indices.len())
+                    .sum::<usize>(),
             spheres: scene.spheres.len() - spheres,
             planes: scene.planes.len() - planes,
             materials: used.into_iter().map(|i| scene.materials[i as usize].name.clone()).collect(),
@@ -214,6 +244,11 @@ fn name_objects(scene: &mut Scene, before: (usize, usize, usize), name: Option<&
 }
 
 impl ObjectFile {
+    /// The object an `instance` object names in `of`.
+    pub(super) fn instance_of(&self) -> Option<String> {
+        (*self.kind.get_ref() == ObjectKind::Instance).then(|| self.of.as_ref().map(|o| o.get_ref().clone())).flatten()
+    }
+
     /// How errors name this object: `object 3 (sphere)` or `object 'ball' (sphere)`.
     pub(super) fn label(&self, index: usize) -> String {
         match &self.name {
@@ -229,10 +264,10 @@ impl ObjectFile {
         scene: &mut Scene,
         ctx: &ObjectContext,
     ) -> Result<(ObjectSummary, Vec<Problem>), Problem> {
-        let before = (scene.meshes.len(), scene.spheres.len(), scene.planes.len());
+        let before = (scene.meshes.len(), scene.spheres.len(), scene.planes.len(), scene.instances.len());
         let report = self.add_geometry(scene, ctx)?;
         let name = self.name.as_ref().map(|n| n.get_ref().clone());
-        name_objects(scene, before, name.as_deref(), ctx.index);
+        name_objects(scene, (before.0, before.1, before.2), name.as_deref(), ctx.index);
         let summary = ObjectSummary::of(scene, before, name, self.kind.get_ref().name(), &report);
         let span = self.path.as_ref().map_or_else(|| ctx.span.clone(), |p| p.span());
         Ok((summary, report.warnings.into_iter().map(|w| at(span.clone(), w)).collect()))
@@ -273,8 +308,7 @@ impl ObjectFile {
             ObjectKind::Triangles => {
                 let mut mesh = self.inline_mesh(ctx)?;
                 mesh.material = material(ctx)?;
-                transform.apply_to_mesh(&mut mesh);
-                scene.meshes.push(mesh);
+                self.place(scene, ctx, vec![mesh], &transform);
             }
             ObjectKind::RandomSpheres => {
                 let materials = match (&self.material, &self.materials) {
@@ -302,14 +336,67 @@ impl ObjectFile {
                 let file = ctx.base.join(path.get_ref());
                 let (meshes, report) =
                     load_mesh_file(&file, &options, material, scene).map_err(|e| at(path.span(), e.to_string()))?;
-                for mut mesh in meshes {
-                    transform.apply_to_mesh(&mut mesh);
-                    scene.meshes.push(mesh);
-                }
+                self.place(scene, ctx, meshes, &transform);
                 return Ok(report);
+            }
+            ObjectKind::Instance => {
+                // The named object's prototypes again, each by its transform within that
+                // object followed by this object's transform.
+                let of = required(&self.of, "of", &ctx.span)?;
+                let material = self.material.as_ref().map(|m| ctx.material(m)).transpose()?;
+                let placements = ctx.placements.borrow();
+                let Some(list) = placements.get(of.get_ref()) else {
+                    return Err(at(
+                        of.span(),
+                        format!("no earlier `mesh`, `triangles` or `gltf` object is named '{}'", of.get_ref()),
+                    ));
+                };
+                let name = self.name.as_ref().map_or_else(|| format!("object {}", ctx.index), |n| n.get_ref().clone());
+                for &(prototype, local) in list {
+                    let transform = local.then(&transform);
+                    scene.instances.push(Instance { name: name.clone(), prototype, transform, material });
+                }
+            }
+            ObjectKind::Gltf => {
+                // A glTF object adds its meshes, materials and lights (not its cameras): see
+                // `crate::scene::gltf`.
+                let path = required(&self.path, "path", &ctx.span)?;
+                let material = self.material.as_ref().map(|m| ctx.material(m)).transpose()?;
+                let file = ctx.base.join(path.get_ref());
+                let gltf = crate::io::gltf::load_gltf(&file).map_err(|e| at(path.span(), e.to_string()))?;
+                let name = self.name.as_ref().map(|n| n.get_ref().clone());
+                let instanced = name.as_ref().is_some_and(|n| ctx.instanced.contains(n));
+                let (_, placements) =
+                    crate::scene::gltf::add_gltf(scene, &file, &gltf, &transform, material, instanced);
+                if let Some(name) = name.filter(|_| instanced) {
+                    ctx.placements.borrow_mut().insert(name, placements);
+                }
+                return Ok(FileReport { file: Some(file), warnings: gltf.warnings, degenerate_dropped: 0 });
             }
         }
         Ok(FileReport::default())
+    }
+
+    /// Adds the meshes of a `triangles` or `mesh` object, in the object's own coordinates, by
+    /// `transform`: flattened into world space, or, when an `instance` object names this one,
+    /// stored once as prototypes with an instance each.
+    fn place(&self, scene: &mut Scene, ctx: &ObjectContext, meshes: Vec<Mesh>, transform: &Transform) {
+        let name = self.name.as_ref().map(|n| n.get_ref().clone()).filter(|n| ctx.instanced.contains(n));
+        let Some(name) = name else {
+            for mut mesh in meshes {
+                transform.apply_to_mesh(&mut mesh);
+                scene.meshes.push(mesh);
+            }
+            return;
+        };
+        let mut placements = Vec::new();
+        for mesh in meshes {
+            let prototype = scene.prototypes.len() as u32;
+            scene.prototypes.push(mesh);
+            scene.instances.push(Instance { name: name.clone(), prototype, transform: *transform, material: None });
+            placements.push((prototype, Transform::default()));
+        }
+        ctx.placements.borrow_mut().insert(name, placements);
     }
 
     fn transform(&self) -> Result<Transform, Problem> {
@@ -460,6 +547,6 @@ pub(super) fn mesh_file_scene(path: &Path) -> Result<(Scene, FileReport, ObjectS
     let mut scene = Scene::default();
     let (meshes, report) = load_mesh_file(path, &MeshOptions::default(), None, &mut scene)?;
     scene.meshes = meshes;
-    let summary = ObjectSummary::of(&scene, (0, 0, 0), None, ObjectKind::Mesh.name(), &report);
+    let summary = ObjectSummary::of(&scene, (0, 0, 0, 0), None, ObjectKind::Mesh.name(), &report);
     Ok((scene, report, summary))
 }

@@ -1,0 +1,154 @@
+//! The AVX2 traversal kernel: one 8-wide slab test per node instead of two 4-wide ones, and
+//! the whole traversal (triangle tests included) compiled with AVX2 enabled, chosen at run
+//! time where the CPU has it (`is_x86_feature_detected!`); the portable kernel stays for the
+//! others.
+//!
+//! The slab test is the portable one's, lane for lane: `t = (bound − org)·inv` for the near
+//! slabs, `(bound − org)·(inv·(1 + 2γ₃))` for the far ones, the same max/min reduction trees
+//! (the axial one keeping the accumulated value where a slab gives NaN, as MAXPS/MINPS do),
+//! and `entry ≤ exit`. Same values, same order, so the same bits: both kernels visit the same
+//! nodes and report the same hits (a test checks it on random and axis-parallel rays).
+//!
+//! This is the native backend's one module with `unsafe`: the intrinsics need it (on Rust
+//! 1.86 they are `unsafe fn`s), and so does entering a function compiled for AVX2. Both are
+//! sound only on a CPU with AVX2, which an [`Avx2`] value proves: its only constructor
+//! checks. Measured on the full dragon, 1 thread, against the portable kernel: see the commit
+//! message and docs/performance.md.
+
+use std::arch::x86_64::*;
+
+use super::node::{ChildRef, Node, WIDTH};
+use super::{BoxTest, Bvh, TraversalRay};
+use crate::accel::Hit;
+use crate::math::Ray;
+
+/// Proof that the CPU runs AVX2: made only by [`Avx2::detect`].
+#[derive(Clone, Copy, Debug)]
+pub struct Avx2(());
+
+impl Avx2 {
+    /// `Some` on a CPU with AVX2.
+    pub fn detect() -> Option<Avx2> {
+        is_x86_feature_detected!("avx2").then_some(Avx2(()))
+    }
+
+    /// [`Bvh::intersect_tree`] with the AVX2 kernel.
+    #[inline]
+    pub fn intersect(self, bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Hit> {
+        // SAFETY: `self` exists, so the CPU has AVX2 (see `detect`).
+        unsafe { intersect(bvh, ray, tfar) }
+    }
+
+    /// [`Bvh::occluded_tree`] with the AVX2 kernel.
+    #[inline]
+    pub fn occluded(self, bvh: &Bvh, ray: &Ray) -> bool {
+        // SAFETY: `self` exists, so the CPU has AVX2 (see `detect`).
+        unsafe { occluded(bvh, ray) }
+    }
+}
+
+#[target_feature(enable = "avx2")]
+fn intersect(bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Hit> {
+    let r = TraversalRay::new(ray);
+    bvh.intersect_by(ray, tfar, &r, &Boxes8::new(&r))
+}
+
+#[target_feature(enable = "avx2")]
+fn occluded(bvh: &Bvh, ray: &Ray) -> bool {
+    let r = TraversalRay::new(ray);
+    bvh.occluded_by(ray, &r, &Boxes8::new(&r))
+}
+
+/// A [`TraversalRay`] broadcast to eight lanes. Made and used only inside the
+/// `#[target_feature(enable = "avx2")]` functions above.
+struct Boxes8 {
+    org: [__m256; 3],
+    inv: [__m256; 3],
+    inv_far: [__m256; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+    tnear: __m256,
+}
+
+impl Boxes8 {
+    #[inline(always)]
+    fn new(r: &TraversalRay) -> Self {
+        // SAFETY: only called from the AVX2 functions above, on a CPU with AVX2.
+        unsafe {
+            Boxes8 {
+                org: r.org.map(|v| _mm256_set1_ps(v.x)),
+                inv: r.inv.map(|v| _mm256_set1_ps(v.x)),
+                inv_far: r.inv_far.map(|v| _mm256_set1_ps(v.x)),
+                near: r.near,
+                far: r.far,
+                tnear: _mm256_set1_ps(r.tnear.x),
+            }
+        }
+    }
+}
+
+/// Cache lines of a leaf's first blocks that [`Boxes8::prefetch`] asks for.
+const LEAF_LINES: usize = 4;
+
+impl BoxTest for Boxes8 {
+    #[inline(always)]
+    fn prefetch(&self, bvh: &Bvh, child: ChildRef) {
+        let (p, lines) = if child.is_leaf() {
+            if child.is_spheres() {
+                return;
+            }
+            let (first, count) = child.range();
+            let bytes = count * size_of::<super::Block>();
+            (bvh.blocks.as_ptr().wrapping_add(first).cast::<i8>(), bytes.div_ceil(64).min(LEAF_LINES))
+        } else if child != ChildRef::EMPTY {
+            (bvh.nodes.as_ptr().wrapping_add(child.index()).cast::<i8>(), size_of::<Node>() / 64)
+        } else {
+            return;
+        };
+        for line in 0..lines {
+            // SAFETY: a prefetch is a hint that never faults and reads nothing the program
+            // sees, whatever the address (computed with `wrapping_add`, so no out-of-bounds
+            // pointer arithmetic either); SSE is part of x86-64.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
+        }
+    }
+
+    #[inline(always)]
+    fn hit_boxes<const AXIAL: bool>(&self, node: &Node, tfar: f32) -> ([f32; WIDTH], u32) {
+        let b = &node.bounds;
+        let [ox, oy, oz] = self.org;
+        let [ix, iy, iz] = self.inv;
+        let [fx, fy, fz] = self.inv_far;
+        let mut entry = [0.0f32; WIDTH];
+        // SAFETY: a `Boxes8` exists only inside the AVX2 functions above, on a CPU with AVX2.
+        // Each `b[slab]` is two `Vec4`s, eight contiguous f32 (`Node` is `repr(C)`, 64-byte
+        // aligned, and a slab row is 32 bytes), read unaligned anyway; `entry` has eight f32.
+        unsafe {
+            let load = |slab: usize| _mm256_loadu_ps(b[slab].as_ptr().cast::<f32>());
+            let slab = |bound: __m256, o: __m256, inv: __m256| _mm256_mul_ps(_mm256_sub_ps(bound, o), inv);
+            let n0 = slab(load(self.near[0]), ox, ix);
+            let n1 = slab(load(self.near[1]), oy, iy);
+            let n2 = slab(load(self.near[2]), oz, iz);
+            let f0 = slab(load(self.far[0]), ox, fx);
+            let f1 = slab(load(self.far[1]), oy, fy);
+            let f2 = slab(load(self.far[2]), oz, fz);
+            let tfar = _mm256_set1_ps(tfar * super::EXIT_SCALE);
+            // MAXPS/MINPS return their second operand when either is NaN: `max(x, acc)` keeps
+            // `acc` where the slab `x` is NaN (the portable `keep_max`).
+            let (t0, t1) = if AXIAL {
+                (
+                    _mm256_max_ps(n2, _mm256_max_ps(n1, _mm256_max_ps(n0, self.tnear))),
+                    _mm256_min_ps(f2, _mm256_min_ps(f1, _mm256_min_ps(f0, tfar))),
+                )
+            } else {
+                (
+                    _mm256_max_ps(_mm256_max_ps(n0, n1), _mm256_max_ps(n2, self.tnear)),
+                    _mm256_min_ps(_mm256_min_ps(f0, f1), _mm256_min_ps(f2, tfar)),
+                )
+            };
+            _mm256_storeu_ps(entry.as_mut_ptr(), t0);
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+            (entry, mask)
+        }
+    }
+}

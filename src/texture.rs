@@ -1,0 +1,249 @@
+//! Image textures: a diffuse albedo read from a PNG or JPEG file at the hit's texture
+//! coordinates.
+//!
+//! - **Decoding** (the `image` crate): 8- and 16-bit images are sRGB-encoded, so each channel
+//!   `c ∈ [0, 1]` is turned into linear reflectance once, at load time, with the sRGB transfer
+//!   function `c ≤ 0.04045 ? c/12.92 : ((c + 0.055)/1.055)^2.4` (computed in f64). Alpha is
+//!   ignored (strahl's surfaces are opaque).
+//! - **Coordinates**: `(u, v)` with `(0, 0)` the **bottom-left** corner of the image and
+//!   `(1, 1)` the top-right, as OBJ and PLY store them (glTF's top-left origin is converted
+//!   when its files are read). Texel `(i, j)` (column `i`, row `j` from the top) has its
+//!   centre at `u = (i + ½)/W`, `v = 1 − (j + ½)/H`.
+//! - **Wrap modes** ([`Wrap`]) map any `u` into `[0, 1)` before the lookup: repeat
+//!   (`u − ⌊u⌋`), clamp to edge, mirrored repeat (every other copy reflected). The wrap applies
+//!   to texel indices, so bilinear filtering at an edge wraps the same way.
+//! - **Bilinear filtering**: the four texels around `(u·W − ½, (1 − v)·H − ½)` weighted by the
+//!   fractional parts, as OpenGL's `GL_LINEAR` does.
+//!
+//! Texture memory is shared: [`open_shared`] decodes each file once and materials hold an
+//! [`Arc`] to the same texels.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, Weak};
+use std::time::SystemTime;
+
+use crate::math::{Vec2, Vec3};
+
+/// What a texture coordinate outside `[0, 1)` maps to (glTF sampler `wrapS`/`wrapT`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Wrap {
+    /// The image tiles the plane (glTF `REPEAT`, 10497; OBJ's only mode).
+    #[default]
+    Repeat,
+    /// Coordinates are clamped to the edge texels (glTF `CLAMP_TO_EDGE`, 33071).
+    Clamp,
+    /// The image tiles the plane, every other copy mirrored (glTF `MIRRORED_REPEAT`, 33648).
+    MirroredRepeat,
+}
+
+impl Wrap {
+    /// The texel index for a (possibly out-of-range) integer index `i` of an axis of `n`
+    /// texels.
+    #[inline]
+    fn index(self, i: i64, n: usize) -> usize {
+        let n = n as i64;
+        let k = match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::MirroredRepeat => {
+                let m = i.rem_euclid(2 * n);
+                if m < n { m } else { 2 * n - 1 - m }
+            }
+        };
+        k as usize
+    }
+}
+
+/// A decoded image: linear RGB texels, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    /// Where it came from, for messages (`tex.png`, `model.glb image 2`).
+    pub name: String,
+    pub width: usize,
+    pub height: usize,
+    /// `width·height` linear reflectances, row-major from the top-left.
+    pub texels: Vec<Vec3>,
+}
+
+/// The sRGB transfer function's inverse: an encoded channel in [0, 1] to linear.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+impl Image {
+    /// Decodes a PNG or JPEG file's bytes (the format is read from the bytes, not a file
+    /// name); `name` names the image in errors. 8-bit images go through a 256-entry table,
+    /// deeper ones through the formula.
+    pub fn decode(bytes: &[u8], name: &str) -> Result<Image, String> {
+        let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| format!("{name}: cannot read the image: {e}"))?;
+        if reader.format().is_none() {
+            return Err(format!("{name}: is not a PNG or JPEG image"));
+        }
+        let decoded = reader.decode().map_err(|e| format!("{name}: cannot decode the image: {e}"))?;
+        let (width, height) = (decoded.width() as usize, decoded.height() as usize);
+        let texels = if decoded.color().bytes_per_pixel() / decoded.color().channel_count().max(1) > 1 {
+            let rgb = decoded.into_rgb16();
+            let lin = |c: u16| srgb_to_linear(c as f64 / 65535.0) as f32;
+            rgb.pixels().map(|p| Vec3::new(lin(p[0]), lin(p[1]), lin(p[2]))).collect()
+        } else {
+            let table: Vec<f32> = (0..256).map(|c| srgb_to_linear(c as f64 / 255.0) as f32).collect();
+            let rgb = decoded.into_rgb8();
+            rgb.pixels().map(|p| Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize])).collect()
+        };
+        if width == 0 || height == 0 {
+            return Err(format!("{name}: the image has no pixels"));
+        }
+        Ok(Image { name: name.to_string(), width, height, texels })
+    }
+
+    /// Reads and decodes the image file at `path`.
+    pub fn open(path: &Path) -> Result<Image, String> {
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
+        Image::decode(&bytes, &path.display().to_string())
+    }
+
+    #[inline]
+    fn texel(&self, i: usize, j: usize) -> Vec3 {
+        self.texels[j * self.width + i]
+    }
+
+    /// Bytes the texels take.
+    pub fn size_bytes(&self) -> usize {
+        self.texels.len() * std::mem::size_of::<Vec3>()
+    }
+}
+
+/// A diffuse albedo from an image: `factor · bilinear(image, wrap(uv))`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageTexture {
+    pub image: Arc<Image>,
+    /// Wrap mode along `u` (glTF `wrapS`).
+    pub wrap_u: Wrap,
+    /// Wrap mode along `v` (glTF `wrapT`).
+    pub wrap_v: Wrap,
+    /// Multiplies every texel (glTF `baseColorFactor`; OBJ's `Kd`, 1 when the MTL gives none).
+    pub factor: Vec3,
+}
+
+impl ImageTexture {
+    /// The filtered, linear albedo at texture coordinates `uv` (see the module header).
+    pub fn lookup(&self, uv: Vec2) -> Vec3 {
+        let img = &*self.image;
+        // Continuous texel coordinates, texel centres at integers + ½ from the top-left.
+        let x = uv.x as f64 * img.width as f64 - 0.5;
+        let y = (1.0 - uv.y as f64) * img.height as f64 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return Vec3::ZERO;
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (i0, i1) = (self.wrap_u.index(x0, img.width), self.wrap_u.index(x0 + 1, img.width));
+        let (j0, j1) = (self.wrap_v.index(y0, img.height), self.wrap_v.index(y0 + 1, img.height));
+        let top = img.texel(i0, j0) * (1.0 - fx) + img.texel(i1, j0) * fx;
+        let bottom = img.texel(i0, j1) * (1.0 - fx) + img.texel(i1, j1) * fx;
+        self.factor * (top * (1.0 - fy) + bottom * fy)
+    }
+}
+
+/// The decoded image of the file at `path`, shared: every material of the process that names
+/// the same file (same canonical path, size and modification time) while another still holds
+/// it gets the same texels, decoded once.
+pub fn open_shared(path: &Path) -> Result<Arc<Image>, String> {
+    /// A file by canonical path, size in bytes and modification time.
+    type FileKey = (PathBuf, u64, Option<SystemTime>);
+    static CACHE: Mutex<BTreeMap<FileKey, Weak<Image>>> = Mutex::new(BTreeMap::new());
+    let meta = std::fs::metadata(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
+    let key = (path.canonicalize().unwrap_or_else(|_| path.to_path_buf()), meta.len(), meta.modified().ok());
+    let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    cache.retain(|_, image| image.strong_count() > 0);
+    if let Some(image) = cache.get(&key).and_then(Weak::upgrade) {
+        return Ok(image);
+    }
+    let image = Arc::new(Image::open(path)?);
+    cache.insert(key, Arc::downgrade(&image));
+    Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2×2 image: top row red, green; bottom row blue, white (linear values).
+    fn quad(wrap: Wrap) -> ImageTexture {
+        let texels = vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
+        let image = Arc::new(Image { name: "t".into(), width: 2, height: 2, texels });
+        ImageTexture { image, wrap_u: wrap, wrap_v: wrap, factor: Vec3::ONE }
+    }
+
+    #[test]
+    fn texel_centres_give_the_texel() {
+        let t = quad(Wrap::Repeat);
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.75)), Vec3::X); // top-left
+        assert_eq!(t.lookup(Vec2::new(0.75, 0.75)), Vec3::Y);
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.25)), Vec3::Z); // bottom-left
+        assert_eq!(t.lookup(Vec2::new(0.75, 0.25)), Vec3::ONE);
+    }
+
+    #[test]
+    fn bilinear_between_centres() {
+        let t = quad(Wrap::Clamp);
+        // Halfway between the two top texel centres.
+        assert_eq!(t.lookup(Vec2::new(0.5, 0.75)), Vec3::new(0.5, 0.5, 0.0));
+        // The centre of the image: the mean of all four.
+        assert_eq!(t.lookup(Vec2::new(0.5, 0.5)), Vec3::new(0.5, 0.5, 0.5));
+    }
+
+    #[test]
+    fn wrap_modes() {
+        // u = 1.25 is a quarter into the next copy (repeat), past the edge (clamp), or a
+        // quarter back into the mirrored copy (mirrored repeat).
+        let top = 0.75;
+        assert_eq!(quad(Wrap::Repeat).lookup(Vec2::new(1.25, top)), Vec3::X);
+        assert_eq!(quad(Wrap::Clamp).lookup(Vec2::new(1.25, top)), Vec3::Y);
+        assert_eq!(quad(Wrap::MirroredRepeat).lookup(Vec2::new(1.25, top)), Vec3::Y);
+        assert_eq!(quad(Wrap::MirroredRepeat).lookup(Vec2::new(1.75, top)), Vec3::X);
+        assert_eq!(quad(Wrap::Repeat).lookup(Vec2::new(-0.25, top)), Vec3::Y);
+        assert_eq!(quad(Wrap::Clamp).lookup(Vec2::new(-3.0, top)), Vec3::X);
+        assert_eq!(quad(Wrap::MirroredRepeat).lookup(Vec2::new(-0.25, top)), Vec3::X);
+        // Along v: v = 1.25 is a quarter into the copy above.
+        assert_eq!(quad(Wrap::Repeat).lookup(Vec2::new(0.25, 1.25)), Vec3::Z);
+        assert_eq!(quad(Wrap::Clamp).lookup(Vec2::new(0.25, 1.25)), Vec3::X);
+        assert_eq!(quad(Wrap::MirroredRepeat).lookup(Vec2::new(0.25, 1.25)), Vec3::X);
+    }
+
+    #[test]
+    fn srgb_decoding_is_exact() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert_eq!(srgb_to_linear(1.0), 1.0);
+        assert!((srgb_to_linear(0.5) - 0.214_041_140_482_232_55).abs() < 1e-15);
+        assert!((srgb_to_linear(0.04045) - 0.04045 / 12.92).abs() < 1e-17);
+    }
+
+    #[test]
+    fn bad_bytes_are_named() {
+        let e = Image::decode(b"not an image at all", "x.png").unwrap_err();
+        assert!(e.starts_with("x.png: "), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod sharing {
+    use super::*;
+
+    #[test]
+    fn one_file_is_decoded_once_while_in_use() {
+        let dir = std::env::temp_dir().join(format!("strahl-texture-share-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.png");
+        image::RgbImage::from_pixel(2, 1, image::Rgb([255, 128, 0])).save(&path).unwrap();
+        let a = open_shared(&path).unwrap();
+        let b = open_shared(&dir.join(".").join("t.png")).unwrap();
+        assert!(Arc::ptr_eq(&a, &b));
+        assert_eq!(a.texels[0], Vec3::new(1.0, srgb_to_linear(128.0 / 255.0) as f32, 0.0));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,213 @@
+//! Hostile input files, run through the `strahl` binary: special files, decompression bombs and
+//! headers whose counts no file can back are refused quickly, in little memory, with one line
+//! naming the file. Time and peak memory are measured on the child process (`/usr/bin/time`'s
+//! maximum resident set size, which is `getrusage` of the child), with generous bounds: they
+//! guard against a hang or a memory bomb, not a slowdown.
+
+mod common;
+
+use std::io::Write;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::TempDir;
+
+/// What a run of `strahl` did.
+struct Run {
+    status: Option<i32>,
+    stderr: String,
+    seconds: f64,
+    /// Peak resident memory of the child, in MiB (`None` without `/usr/bin/time`).
+    max_rss_mib: Option<f64>,
+}
+
+/// Runs `strahl args` under `/usr/bin/time` (when there is one), killing it after 20 s so that a
+/// hang fails the test instead of stalling the suite.
+fn run(dir: &TempDir, args: &[&str]) -> Run {
+    let time = Path::new("/usr/bin/time");
+    let rss_file = dir.path("rss.txt");
+    let mut cmd = if time.exists() {
+        let mut c = Command::new(time);
+        c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
+        c
+    } else {
+        eprintln!("note: /usr/bin/time is missing: peak memory not measured");
+        Command::new(env!("CARGO_BIN_EXE_strahl"))
+    };
+    let start = Instant::now();
+    let mut child = cmd.args(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().expect("strahl runs");
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(20) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("strahl {args:?} still running after 20 s: a hang");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let out = child.wait_with_output().unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    let max_rss_mib = std::fs::read_to_string(&rss_file)
+        .ok()
+        .and_then(|s| s.lines().last().and_then(|l| l.trim().parse::<f64>().ok()))
+        .map(|kib| kib / 1024.0);
+    let _ = std::fs::remove_file(&rss_file);
+    Run {
+        status: out.status.code(),
+        stderr: String::from_utf8_lossy(&out.stderr).trim_end().to_string(),
+        seconds,
+        max_rss_mib,
+    }
+}
+
+/// Runs `strahl info FILE` and checks it fails in under a second and 200 MiB with one line
+/// `error: FILE…`; returns that line.
+fn refused_quickly(dir: &TempDir, file: &Path) -> String {
+    let r = run(dir, &["info", file.to_str().unwrap()]);
+    assert_eq!(r.status, Some(1), "{file:?}: {}", r.stderr);
+    assert_eq!(r.stderr.lines().count(), 1, "{:?}", r.stderr);
+    assert!(r.stderr.starts_with(&format!("error: {}", file.display())), "{}", r.stderr);
+    assert!(r.seconds < 1.0, "{file:?} took {:.2} s", r.seconds);
+    if let Some(mib) = r.max_rss_mib {
+        assert!(mib < 200.0, "{file:?} took {mib:.0} MiB");
+    }
+    r.stderr
+}
+
+fn mkfifo(path: &Path) {
+    let ok = Command::new("mkfifo").arg(path).status().expect("mkfifo runs").success();
+    assert!(ok, "mkfifo {path:?}");
+}
+
+const SCENE_HEAD: &str = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_deg = 40\n";
+
+#[test]
+fn fifos_are_refused_without_being_opened() {
+    let dir = TempDir::new("fifo");
+    for name in ["scene.toml", "mesh.obj", "mesh.ply"] {
+        let fifo = dir.path(name);
+        mkfifo(&fifo);
+        let e = refused_quickly(&dir, &fifo);
+        assert!(e.ends_with("not a regular file (a FIFO): only regular files are read"), "{e}");
+    }
+    // A scene naming a FIFO as its mesh: the error points at the `path` value.
+    let scene = dir.write("s.toml", format!("{SCENE_HEAD}[[objects]]\ntype = \"mesh\"\npath = \"mesh.obj\"\n"));
+    let e = refused_quickly(&dir, &scene);
+    assert!(e.contains("s.toml:7:8: object 0 (mesh): "), "{e}");
+    assert!(e.ends_with("mesh.obj: not a regular file (a FIFO): only regular files are read"), "{e}");
+    // An MTL library that is a FIFO.
+    mkfifo(&dir.path("lib.mtl"));
+    let obj = dir.write("m.obj", "mtllib lib.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let e = refused_quickly(&dir, &obj);
+    assert!(e.ends_with("lib.mtl: not a regular file (a FIFO): only regular files are read"), "{e}");
+}
+
+#[test]
+fn devices_and_directories_are_refused() {
+    let dir = TempDir::new("devices");
+    let e = refused_quickly(&dir, Path::new("/dev/zero"));
+    assert_eq!(
+        e,
+        "error: /dev/zero: cannot read the scene: not a regular file (a character device): only regular files are read"
+    );
+    // Symlinks are followed to what they name.
+    for (name, target) in [("zero.ply", "/dev/zero"), ("random.obj", "/dev/urandom"), ("random.ply.gz", "/dev/urandom")]
+    {
+        let link = dir.path(name);
+        std::os::unix::fs::symlink(target, &link).unwrap();
+        let e = refused_quickly(&dir, &link);
+        assert!(e.ends_with("not a regular file (a character device): only regular files are read"), "{e}");
+    }
+    std::fs::create_dir(dir.path("folder.obj")).unwrap();
+    let e = refused_quickly(&dir, &dir.path("folder.obj"));
+    assert!(e.ends_with("not a regular file (a directory): only regular files are read"), "{e}");
+}
+
+/// A gzip member holding `n` zero bytes.
+fn gzip_zeros(n: usize) -> Vec<u8> {
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    e.write_all(&vec![0u8; n]).unwrap();
+    e.finish().unwrap()
+}
+
+#[test]
+fn a_gzip_bomb_is_refused_early() {
+    let dir = TempDir::new("gzbomb");
+    // 4096 members of 1 MiB of zeros: about 4 MB that inflate to 4 GiB.
+    let member = gzip_zeros(1 << 20);
+    let bomb: Vec<u8> = member.iter().copied().cycle().take(member.len() * 4096).collect();
+    assert!(bomb.len() < 8 << 20, "{}", bomb.len());
+    let path = dir.write("bomb.ply.gz", &bomb);
+    let e = refused_quickly(&dir, &path);
+    let limit = 16 * bomb.len();
+    assert!(e.contains(&format!("gzip data inflates to more than {limit} bytes")), "{e}");
+    assert!(e.contains("STRAHL_MAX_MESH_BYTES"), "{e}");
+
+    // One member whose trailer is honest, over a lowered limit: refused, and the message says
+    // how to raise it; raised, the same limit check passes and the PLY parser takes over.
+    let z = gzip_zeros(1 << 20);
+    let path = dir.write("zeros.ply.gz", &z);
+    let out = Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(["info", path.to_str().unwrap()])
+        .env("STRAHL_MAX_MESH_BYTES", "100000")
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("gzip data inflates to more than 100000 bytes"), "{e}");
+    let out = Command::new(env!("CARGO_BIN_EXE_strahl")).args(["info", path.to_str().unwrap()]).output().unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.trim_end().ends_with("zeros.ply.gz: not a PLY file"), "{e}");
+    let out = Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(["info", path.to_str().unwrap()])
+        .env("STRAHL_MAX_MESH_BYTES", "lots")
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("STRAHL_MAX_MESH_BYTES=\"lots\" is not a number of bytes"), "{e}");
+}
+
+#[test]
+fn ply_counts_no_file_can_back_are_refused_at_once() {
+    let dir = TempDir::new("plycounts");
+    let vertices = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+    let mut body = Vec::new();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+        p.iter().for_each(|c| body.extend(c.to_le_bytes()));
+    }
+    body.extend([3u8, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0]);
+    let faces = "element face 1\nproperty list uchar uint vertex_indices\n";
+    let file = |middle: &str| {
+        let mut d = format!("ply\nformat binary_little_endian 1.0\n{vertices}{faces}{middle}end_header\n").into_bytes();
+        d.extend(&body);
+        d
+    };
+    // The 2^63 − 1 items of nothing that used to spin forever.
+    let path = dir.write("empty-items.ply", file("element junk 9223372036854775807\n"));
+    let e = refused_quickly(&dir, &path);
+    assert!(e.ends_with(":9: element 'junk' has 9223372036854775807 items but no properties (nothing to read)"), "{e}");
+    // Items of one byte each, more than the file holds.
+    let path = dir.write("big-count.ply", file("element junk 4611686018427387904\nproperty uchar a\n"));
+    let e = refused_quickly(&dir, &path);
+    assert!(
+        e.ends_with(
+            ":9: element 'junk' declares 4611686018427387904 items of at least 1 bytes each, but only 0 bytes remain \
+             (truncated or corrupt binary PLY)"
+        ),
+        "{e}"
+    );
+    // The same in ASCII: each item needs a line.
+    let ascii = format!(
+        "ply\nformat ascii 1.0\n{vertices}element face 4611686018427387904\nproperty list uchar uint vertex_indices\n\
+         end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    );
+    let path = dir.write("ascii-count.ply", ascii);
+    let e = refused_quickly(&dir, &path);
+    assert!(e.contains(":7: element 'face' declares 4611686018427387904 items, but only 9 bytes remain"), "{e}");
+    // The untouched file loads.
+    let path = dir.write("fine.ply", file(""));
+    let r = run(&dir, &["info", path.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+}

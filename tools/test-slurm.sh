@@ -1,0 +1,149 @@
+#!/usr/bin/env bash
+# make test-slurm: strahl's Slurm job arrays on a real (one-node, localhost) Slurm cluster.
+#
+# Installs Debian's slurmctld slurmd slurm-client munge when missing, starts munged,
+# slurmctld and slurmd without systemd (loopback only, state under a private directory),
+# submits `strahl farm slurm` for an 8-tile render, waits by polling squeue/sacct, and compares
+# the merged EXR with a single-process render byte for byte. Every daemon it started is stopped
+# by PID on every exit path. Needs root (it writes /etc/munge and starts daemons).
+#
+# Exit status: 0 passed or skipped (said loudly: not root, or no apt-get to install Slurm), 1 failed.
+# Prints "N passed, N failed" at the end. STRAHL=path/to/strahl (default: target/release/strahl,
+# built when missing).
+
+set -uo pipefail
+export PATH="$PATH:/usr/sbin:/sbin"
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+start_ms=$(date +%s%3N)
+seconds() { local ms=$(( $(date +%s%3N) - start_ms )); printf '%d.%d' $((ms / 1000)) $((ms % 1000 / 100)); }
+log() { printf 'test-slurm: %s\n' "$*" >&2; }
+skip() { log "SKIPPED: $*"; echo "0 passed, 0 failed, 1 skipped"; exit 0; }
+fail() { log "FAILED: $*"; echo "0 passed, 1 failed"; exit 1; }
+
+[ "$(id -u)" -eq 0 ] || skip "needs root to install Slurm and start its daemons"
+
+WORK=$(mktemp -d /tmp/strahl-slurm.XXXXXX)
+PIDS=()   # pid files of the daemons this script started
+cleanup() {
+  local status=$?
+  for pidfile in "${PIDS[@]}"; do
+    [ -f "$pidfile" ] || continue
+    local pid; pid=$(cat "$pidfile" 2>/dev/null)
+    [ -n "$pid" ] || continue
+    kill -TERM "$pid" 2>/dev/null
+    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+    kill -KILL "$pid" 2>/dev/null
+  done
+  rm -rf "$WORK"
+  exit "$status"
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+
+# 1. Install.
+need=0
+for c in slurmctld slurmd sbatch squeue sinfo munge; do command -v "$c" >/dev/null || need=1; done
+[ -x /usr/sbin/munged ] || need=1
+if [ "$need" -eq 1 ]; then
+  command -v apt-get >/dev/null || skip "Slurm is not installed and there is no apt-get"
+  log "installing slurmctld slurmd slurm-client munge"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get install -y -qq --no-install-recommends slurmctld slurmd slurm-client munge >/dev/null 2>&1 \
+    || { apt-get update -qq >/dev/null 2>&1 && apt-get install -y -qq --no-install-recommends slurmctld slurmd slurm-client munge >/dev/null; } \
+    || fail "cannot install Slurm"
+fi
+
+# 2. strahl.
+STRAHL=${STRAHL:-$ROOT/target/release/strahl}
+if [ ! -x "$STRAHL" ]; then
+  log "building strahl"
+  cargo build --release --locked -q || fail "cannot build strahl"
+fi
+
+# 3. munge: a key, its directories owned by munge, the daemon as that user.
+if ! munge -n 2>/dev/null | unmunge >/dev/null 2>&1; then
+  mkdir -p /etc/munge /var/lib/munge /var/log/munge /run/munge
+  [ -s /etc/munge/munge.key ] || mungekey --create >/dev/null 2>&1 || dd if=/dev/urandom of=/etc/munge/munge.key bs=1024 count=1 2>/dev/null
+  chown -R munge:munge /etc/munge /var/lib/munge /var/log/munge /run/munge
+  chmod 0400 /etc/munge/munge.key
+  chmod 0700 /etc/munge
+  rm -f /run/munge/munged.pid
+  runuser -u munge -- /usr/sbin/munged || fail "munged did not start"
+  PIDS+=(/run/munge/munged.pid)
+  for _ in $(seq 50); do munge -n 2>/dev/null | unmunge >/dev/null 2>&1 && break; sleep 0.1; done
+  munge -n | unmunge >/dev/null 2>&1 || fail "munge does not work"
+fi
+
+# 4. Slurm, loopback only, everything under $WORK.
+CPUS=8
+mkdir -p "$WORK/state" "$WORK/spool" "$WORK/log" "$WORK/out"
+CONF=$WORK/slurm.conf
+cat >"$CONF" <<EOF
+ClusterName=strahltest
+SlurmctldHost=localhost
+SlurmUser=root
+SlurmdUser=root
+AuthType=auth/munge
+CommunicationParameters=NoCtldInAddrAny,NoInAddrAny
+ProctrackType=proctrack/linuxproc
+TaskPlugin=task/none
+JobAcctGatherType=jobacct_gather/none
+AccountingStorageType=accounting_storage/none
+SchedulerParameters=batch_sched_delay=0
+SelectType=select/cons_tres
+SelectTypeParameters=CR_Core
+SlurmdParameters=config_overrides
+ReturnToService=2
+SlurmctldPort=16817
+SlurmdPort=16818
+StateSaveLocation=$WORK/state
+SlurmdSpoolDir=$WORK/spool
+SlurmctldPidFile=$WORK/slurmctld.pid
+SlurmdPidFile=$WORK/slurmd.pid
+SlurmctldLogFile=$WORK/log/slurmctld.log
+SlurmdLogFile=$WORK/log/slurmd.log
+NodeName=localhost NodeAddr=127.0.0.1 CPUs=$CPUS RealMemory=1000
+PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
+EOF
+export SLURM_CONF=$CONF
+PIDS+=("$WORK/slurmd.pid" "$WORK/slurmctld.pid")
+slurmctld -f "$CONF" || fail "slurmctld did not start (see its log)"
+slurmd -f "$CONF" -N localhost || fail "slurmd did not start"
+state=""
+for _ in $(seq 200); do
+  state=$(sinfo -h -n localhost -o %T 2>/dev/null | head -1)
+  case "$state" in
+    idle) break ;;
+    drain*|down*) scontrol update nodename=localhost state=resume >/dev/null 2>&1 ;;
+  esac
+  sleep 0.1
+done
+[ "$state" = idle ] || { tail -5 "$WORK/log/slurmctld.log" >&2; fail "the node is '$state', not idle"; }
+log "cluster up after $(seconds) s"
+
+# 5. The render: 8 tiles on Slurm, and one process here, with fixed dates.
+export SOURCE_DATE_EPOCH=1700000000
+SCENE=$ROOT/scenes/cornell.toml
+RENDER=(--width 96 --height 72 --spp 2 --passes all)
+"$STRAHL" render "$SCENE" -o "$WORK/out/single.exr" "${RENDER[@]}" --threads 2 >/dev/null 2>&1 || fail "the single render failed"
+ids=$("$STRAHL" farm slurm "$SCENE" -o "$WORK/out/farm.exr" --tiles 8 --cpus 1 --submit -- "${RENDER[@]}" | tail -1) \
+  || fail "strahl farm slurm --submit failed"
+read -r array merge <<<"$ids"
+log "submitted array $array and merge $merge"
+
+# 6. Wait: poll squeue until neither job is queued or running, then ask sacct (when
+# accounting is off it knows nothing, so the merged file decides).
+for _ in $(seq 1200); do
+  [ -z "$(squeue -h -j "$array,$merge" 2>/dev/null)" ] && break
+  sleep 0.1
+done
+[ -z "$(squeue -h -j "$array,$merge" 2>/dev/null)" ] || fail "the jobs did not finish in 120 s"
+sacct -n -j "$array,$merge" -o JobID,State 2>/dev/null | grep -E 'FAILED|CANCELLED|TIMEOUT' && fail "a job failed"
+[ -f "$WORK/out/farm.exr" ] || { cat "$WORK/out/farm.exr.farm/"*.log >&2 2>/dev/null; fail "no merged image"; }
+
+# 7. Compare.
+cmp "$WORK/out/single.exr" "$WORK/out/farm.exr" || fail "the merged EXR differs from the single-process render"
+log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s in all)"
+echo "1 passed, 0 failed"
