@@ -214,9 +214,17 @@ pub fn trace_occluded<A: Accel>(accel: &A, rays: &[Ray], found: &mut [bool], pac
 }
 
 /// Raw Embree queries ([`embree::raw_bench`]) for every ray once on the current pool.
-pub fn trace_raw(scene: &embree::Scene, query: RawQuery, rays: &RawRays, found: &mut [u8]) -> Result<(), embree::Error> {
+pub fn trace_raw(
+    scene: &embree::Scene,
+    query: RawQuery,
+    rays: &RawRays,
+    found: &mut [u8],
+) -> Result<(), embree::Error> {
     let chunks: Vec<_> = rays.chunks(CHUNK).collect();
-    chunks.into_par_iter().zip(found.par_chunks_mut(CHUNK)).try_for_each(|(rays, found)| raw_bench::trace(scene, query, rays, found))
+    chunks
+        .into_par_iter()
+        .zip(found.par_chunks_mut(CHUNK))
+        .try_for_each(|(rays, found)| raw_bench::trace(scene, query, rays, found))
 }
 
 /// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
@@ -391,17 +399,18 @@ impl fmt::Display for Report {
             writeln!(f)?;
         }
         // Time of `a` over time of `b` (1.00 = as fast, 1.05 = 5 % slower).
-        let ratio = |f: &mut fmt::Formatter<'_>, a: Engine, b: Engine, get: fn(&Throughput) -> Option<f64>| -> fmt::Result {
-            for &(kind, threads) in &columns {
-                let x = self.get(kind, threads, a).and_then(get);
-                let y = self.get(kind, threads, b).and_then(get);
-                match (x, y) {
-                    (Some(x), Some(y)) => write!(f, "{:>14.3}", y / x)?,
-                    _ => write!(f, "{:>14}", "-")?,
+        let ratio =
+            |f: &mut fmt::Formatter<'_>, a: Engine, b: Engine, get: fn(&Throughput) -> Option<f64>| -> fmt::Result {
+                for &(kind, threads) in &columns {
+                    let x = self.get(kind, threads, a).and_then(get);
+                    let y = self.get(kind, threads, b).and_then(get);
+                    match (x, y) {
+                        (Some(x), Some(y)) => write!(f, "{:>14.3}", y / x)?,
+                        _ => write!(f, "{:>14}", "-")?,
+                    }
                 }
-            }
-            writeln!(f)
-        };
+                writeln!(f)
+            };
         const RATIOS: [(&str, Engine, Engine); 4] = [
             ("embree x1 / raw x1", Engine::EmbreeSingle, Engine::RawSingle),
             ("embree x8 / raw x8", Engine::EmbreePacket, Engine::RawPacket),

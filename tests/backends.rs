@@ -102,26 +102,32 @@ fn bench_prints_every_column() {
     };
     let line = |label: &str| find(&stdout, label);
     let throughput = stdout.split("\nMrays/s").nth(1).expect("a Mrays/s table");
-    assert!(
-        line(&format!("{}: ", lecture.display())).contains(
-            "2000 rays per kind (primary, random, secondary; primary: 48 × 48), median of 1 run; load average"
-        )
-    );
+    assert!(line(&format!("{}: ", lecture.display())).contains(
+        "2000 rays per kind (primary, random, secondary, shadow; primary: 48 × 48), median of 1 run; load average"
+    ));
     assert_eq!(line("1 triangles, "), "1 triangles, 1 spheres, 1 planes");
     assert_eq!(line("build ms").split_whitespace().collect::<Vec<_>>(), ["build", "ms", "1", "thr", "2", "thr"]);
     for engine in ["embree", "native"] {
         assert_eq!(numbers(&line(engine)).len(), 2, "{engine}");
     }
     let columns = line("Mrays/s").split_whitespace().skip(1).collect::<Vec<_>>().join(" ");
-    assert_eq!(columns, "primary 1t random 1t secondary 1t primary 2t random 2t secondary 2t");
-    for row in
-        ["embree rtcIntersect1", "embree rtcIntersect8", "native", "native time / embree1", "native CPU / embree1"]
-    {
+    assert_eq!(columns, "primary 1t random 1t secondary 1t shadow 1t primary 2t random 2t secondary 2t shadow 2t");
+    // Raw Embree on the same rays, strahl's wrapper, the native BVH, and the ratios to raw.
+    for row in [
+        "raw embree x1",
+        "embree x1 (strahl)",
+        "raw embree x8",
+        "embree x8 (strahl)",
+        "native",
+        "embree x1 / raw x1",
+        "embree x8 / raw x8",
+        "native / raw x1",
+    ] {
         let values = numbers(&find(throughput, row));
-        assert_eq!(values.len(), 6, "{row}: {values:?}");
+        assert_eq!(values.len(), 8, "{row}: {values:?}");
         assert!(values.iter().all(|v| *v > 0.0), "{row}: {values:?}");
     }
-    assert_eq!(numbers(&line("hit %")).len(), 6);
+    assert_eq!(numbers(&line("hit %")).len(), 8);
     assert!(line("load average after: ").len() > "load average after: ".len());
 
     // One kind, one thread count.
