@@ -36,6 +36,8 @@ pub enum RayKind {
 
 impl RayKind {
     pub const ALL: [RayKind; 4] = [RayKind::Primary, RayKind::Random, RayKind::Secondary, RayKind::Shadow];
+    /// The kinds traced as closest-hit queries: what `crosscheck` compares hit by hit.
+    pub const CLOSEST_HIT: [RayKind; 3] = [RayKind::Primary, RayKind::Random, RayKind::Secondary];
 
     pub fn name(self) -> &'static str {
         match self {

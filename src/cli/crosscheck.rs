@@ -1,4 +1,4 @@
-//! `strahl crosscheck SCENE [--rays N] [--kind primary|random|secondary|shadow|all] [--threads T]
+//! `strahl crosscheck SCENE [--rays N] [--kind primary|random|secondary|all] [--threads T]
 //! [--seed S]`: traces the same rays through Embree and the native BVH
 //! ([`strahl::crosscheck::run`]) and prints, per kind of ray, how often they agree and how any
 //! disagreement is explained; then fails (exit status 1, one `error:` line) if any is not.
@@ -14,7 +14,7 @@ use strahl::crosscheck::{self, Disagreement, Report};
 use strahl::embree::{BuildOptions, EmbreeAccel};
 use strahl::workload::{self, RayKind};
 
-use super::KindArg;
+use super::CrosscheckKind;
 
 /// Unexplained disagreements printed per kind, for diagnosis.
 const EXAMPLES: usize = 5;
@@ -29,8 +29,8 @@ pub struct CrosscheckArgs {
     rays: u64,
     /// Which rays: primary (a camera framing the scene), random (uniform origins and
     /// directions), secondary (mirror reflections at the primary hits), or all three.
-    #[arg(long, value_enum, default_value_t = KindArg::All)]
-    kind: KindArg,
+    #[arg(long, value_enum, default_value_t = CrosscheckKind::All)]
+    kind: CrosscheckKind,
     /// Worker threads for tracing and for both BVH builds [default: one per core].
     #[arg(long, value_name = "T", value_parser = clap::value_parser!(u32).range(1..=4096))]
     threads: Option<u32>,

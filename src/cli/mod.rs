@@ -94,7 +94,7 @@ fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).
 const MAX_RAYS: u64 = 20_000_000;
 
-/// Which kinds of rays `crosscheck` and `bench` trace.
+/// Which kinds of rays `bench` traces (`crosscheck` takes [`CrosscheckKind`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum KindArg {
     Primary,
@@ -112,6 +112,27 @@ impl KindArg {
             KindArg::Secondary => vec![RayKind::Secondary],
             KindArg::Shadow => vec![RayKind::Shadow],
             KindArg::All => RayKind::ALL.to_vec(),
+        }
+    }
+}
+
+/// Which kinds of rays `crosscheck` compares: the closest-hit kinds (shadow rays are any-hit
+/// queries, with no hit to compare).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum CrosscheckKind {
+    Primary,
+    Random,
+    Secondary,
+    All,
+}
+
+impl CrosscheckKind {
+    fn kinds(self) -> Vec<RayKind> {
+        match self {
+            CrosscheckKind::Primary => vec![RayKind::Primary],
+            CrosscheckKind::Random => vec![RayKind::Random],
+            CrosscheckKind::Secondary => vec![RayKind::Secondary],
+            CrosscheckKind::All => RayKind::CLOSEST_HIT.to_vec(),
         }
     }
 }
