@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps build install demo test test-embree4 test-gltf-blender test-slurm forest bench clean
+.PHONY: all deps test-deps build install demo test test-embree4 test-gltf-blender test-slurm forest fuzz bench clean
 
 all: build
 
