@@ -155,7 +155,12 @@ fn cornell_box_obj_has_its_mtl_radiance_under_a_point_light() {
             let Some(first) = soup.first_hit(org, dir) else { continue };
             let Some((t, tri)) = first else {
                 misses += 1;
-                assert_eq!((film.rgba[i], film.depth[i]), ([0.0; 4], f32::INFINITY), "pixel ({x}, {y}) sees nothing");
+                // The background is black; the frame is opaque (alpha 1 everywhere).
+                assert_eq!(
+                    (film.rgba[i], film.depth[i]),
+                    ([0.0, 0.0, 0.0, 1.0], f32::INFINITY),
+                    "pixel ({x}, {y}) sees nothing"
+                );
                 continue;
             };
             let (m, k) = soup.origin[tri];
@@ -255,7 +260,8 @@ fn bunny_ply_depth_normals_and_coverage_match_brute_force() {
             None => ambiguous += 1,
             Some(None) => {
                 misses += 1;
-                assert_eq!((film.rgba[i][3], film.depth[i]), (0.0, f32::INFINITY), "pixel ({x}, {y}) misses");
+                // An opaque frame: alpha 1 on a miss too; depth +inf.
+                assert_eq!((film.rgba[i][3], film.depth[i]), (1.0, f32::INFINITY), "pixel ({x}, {y}) misses");
             }
             Some(Some((t, n))) => {
                 hits += 1;
@@ -268,8 +274,9 @@ fn bunny_ply_depth_normals_and_coverage_match_brute_force() {
     println!("bunny: {hits} hits, {misses} misses, {ambiguous} ambiguous; worst Z {worst_z:e}, worst N {worst_n:e}");
     assert!(worst_z <= 1e-5, "Z off by {worst_z:e} (relative)");
     assert!(worst_n <= 1e-5, "N off by {worst_n:e}");
-    // Coverage: alpha is the fraction of pixel-centre rays that hit (spp 1: 0 or 1 each).
-    let coverage: f64 = film.rgba.iter().map(|p| p[3] as f64).sum::<f64>() / pixels.len() as f64;
+    // Coverage: the fraction of pixel-centre rays that hit, i.e. of finite depths (the frame is
+    // opaque, so alpha is 1 everywhere; spp 1: each pixel hits or not).
+    let coverage: f64 = film.depth.iter().filter(|z| z.is_finite()).count() as f64 / pixels.len() as f64;
     let bounds = (hits as f64 / pixels.len() as f64, (hits + ambiguous) as f64 / pixels.len() as f64);
     assert!(bounds.0 <= coverage && coverage <= bounds.1, "coverage {coverage} outside {bounds:?}");
     assert!(hits > 600 && misses > 600 && ambiguous < pixels.len() / 50, "{hits} {misses} {ambiguous}");

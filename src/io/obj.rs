@@ -28,7 +28,7 @@
 //! | `d a` / `Tr t` (`d` wins; `Tr` = 1 − `d`) | `transmission` = 1 − d (grey) when d < 1 |
 //! | `Tf r g b` | `transmission` of glass (illum 4, 6, 7, 9) |
 //! | `Ke r g b` | `emission` |
-//! | `map_Kd file` | `diffuse` = the image ([`crate::texture`]: sRGB-decoded, bilinear, repeating) times `Kd` (1 when not given); the file relative to the MTL file's folder; missing or not an image: an error at its line; with options (`-s`, `-o`, …): ignored with the warning below |
+//! | `map_Kd file` | `diffuse` = the image ([`crate::texture`]: sRGB-decoded, bilinear, repeating) times `Kd` (1 when not given); the file relative to the MTL file's folder (`\\` read as `/`); a missing file: a warning, and the surface keeps `Kd`; a file that is not an image: an error at its line; with options (`-s`, `-o`, …): ignored with the warning below |
 //! | `Ka`, other `map_*`, `bump`, `disp`, `refl`, … | ignored (ambient is the scene's; one warning) |
 //!
 //! | `illum` | meaning in strahl |
@@ -626,9 +626,20 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
             }
             b"Ka" => {}
             b"map_Kd" if !rest_of(line, keyword).starts_with(b"-") && !rest_of(line, keyword).is_empty() => {
-                let name = String::from_utf8_lossy(rest_of(line, keyword)).into_owned();
+                // Files written on Windows name textures with backslashes (`.\\wood.jpg`).
+                let name = String::from_utf8_lossy(rest_of(line, keyword)).replace('\\', "/");
                 let file = path.parent().unwrap_or(Path::new("")).join(&name);
-                block.map_kd = Some(crate::texture::open_shared(&file).map_err(|e| at(format!("map_Kd: {e}")))?);
+                if file.is_file() {
+                    block.map_kd = Some(crate::texture::open_shared(&file).map_err(|e| at(format!("map_Kd: {e}")))?);
+                } else {
+                    // Meshes are often passed on without their textures (as Blender and assimp
+                    // do, the surface keeps its Kd colour, with a warning).
+                    warnings.push(format!(
+                        "{}:{line_no}: map_Kd: {} does not exist; the material keeps its Kd colour",
+                        path.display(),
+                        file.display()
+                    ));
+                }
             }
             other => {
                 let other = show(other);
