@@ -91,7 +91,7 @@ fn sigterm_saves_a_checkpoint_and_resume_gives_the_same_bytes() {
         let out = dir.path(&format!("term{k}.exr"));
         let child = spawn_slow(&out, 40);
         wait_for_tiles(&checkpoint_of(&out), k);
-        let status = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+        let status = Command::new("sh").args(["-c", &format!("kill -TERM {}", child.id())]).status().unwrap();
         assert!(status.success());
         let done = child.wait_with_output().unwrap();
         let stderr = text(&done.stderr);
@@ -158,7 +158,7 @@ fn interrupted(out: &Path, extra: &[&str]) {
         .spawn()
         .unwrap();
     wait_for_tiles(&checkpoint_of(out), 3);
-    Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    Command::new("sh").args(["-c", &format!("kill -TERM {}", child.id())]).status().unwrap();
     child.wait_with_output().unwrap();
     assert!(checkpoint_of(out).exists());
 }
