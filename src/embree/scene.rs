@@ -340,6 +340,16 @@ pub(super) fn open_tnear(t: f32) -> f32 {
     if t == 0.0 { f32::MIN_POSITIVE } else { t.next_up() }
 }
 
+/// Lane `lane` of an 8-wide packet: `r`'s origin and direction, its open interval
+/// (`tnear` as [`open_tnear`] makes it), every mask bit set.
+#[inline]
+fn set_lane(p: &mut sys::RTCRay8, lane: usize, r: &Ray) {
+    (p.org_x[lane], p.org_y[lane], p.org_z[lane]) = (r.org.x, r.org.y, r.org.z);
+    (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
+    (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
+    p.mask[lane] = u32::MAX;
+}
+
 #[inline]
 fn empty_hit() -> sys::RTCHit {
     sys::RTCHit {
@@ -416,11 +426,8 @@ impl Scene {
         let mut packet = sys::RTCRayHit8::default();
         for (lane, r) in rays.iter().enumerate() {
             valid.0[lane] = -1;
-            let (p, h) = (&mut packet.ray, &mut packet.hit);
-            (p.org_x[lane], p.org_y[lane], p.org_z[lane]) = (r.org.x, r.org.y, r.org.z);
-            (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
-            (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
-            p.mask[lane] = u32::MAX;
+            set_lane(&mut packet.ray, lane, r);
+            let h = &mut packet.hit;
             h.geomID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
             h.primID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
             for level in 0..sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize {
@@ -474,11 +481,7 @@ impl Scene {
                 continue;
             }
             valid.0[lane] = -1;
-            let p = &mut packet;
-            (p.org_x[lane], p.org_y[lane], p.org_z[lane]) = (r.org.x, r.org.y, r.org.z);
-            (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
-            (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
-            p.mask[lane] = u32::MAX;
+            set_lane(&mut packet, lane, r);
         }
         if valid.0 == [0; PACKET_WIDTH] {
             occluded.fill(true);
