@@ -10,8 +10,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{TempDir, channel, read_exr, strahl, text};
-use exr::prelude::{ReadChannels, ReadLayers};
+use common::{TempDir, channel, float_channels, read_exr, read_exr_image, strahl, text};
 use glam::DVec3;
 
 fn scene_path(name: &str) -> PathBuf {
@@ -134,18 +133,12 @@ fn world_to_camera_maps_the_position_pass_onto_the_depth_pass() {
     let (w, h) = (40usize, 30usize);
     // One sample: the position is then that of the pixel-centre ray (NDC checked below).
     render(&scene_path("whitted.toml"), &out, w as u32, h as u32, &["--passes", "default,position", "--spp", "1"]);
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(&out)
-        .unwrap();
+    // One read for the header's matrices and the channels.
+    let image = read_exr_image(&out);
     let attrs = &image.layer_data[0].attributes;
     let to_camera = attrs.world_to_camera.expect("worldToCamera");
     let to_ndc = attrs.world_to_normalized_device.expect("worldToNDC");
-    let (_, _, ch) = read_exr(&out);
+    let ch = float_channels(&image.layer_data[0]);
     let z = channel(&ch, "ViewLayer.Depth.Z");
     let p: Vec<&[f32]> = ["X", "Y", "Z"].iter().map(|c| channel(&ch, &format!("ViewLayer.Position.{c}"))).collect();
     let mut hits = 0;

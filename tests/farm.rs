@@ -6,8 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{TempDir, fails, strahl, text};
-use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+use common::{TempDir, fails, float_channels, read_exr_image, strahl, text};
 
 fn scene_path(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name).to_str().unwrap().to_string()
@@ -78,24 +77,9 @@ fn quadrants_and_seven_tiles_merge_to_the_full_render_byte_for_byte() {
 /// every channel by name.
 #[allow(clippy::type_complexity)]
 fn read_layer(path: &Path) -> ((i32, i32), (usize, usize), (usize, usize), Vec<(String, Vec<f32>)>) {
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .unwrap();
+    let image = read_exr_image(path);
     let layer = &image.layer_data[0];
-    let channels = layer
-        .channel_data
-        .list
-        .iter()
-        .map(|c| {
-            let FlatSamples::F32(v) = &c.sample_data else { panic!("{} is not float32", c.name) };
-            (c.name.to_string(), v.clone())
-        })
-        .collect();
+    let channels = float_channels(layer);
     let position = layer.attributes.layer_position;
     let display = image.attributes.display_window.size;
     ((position.0, position.1), (layer.size.0, layer.size.1), (display.0, display.1), channels)

@@ -139,19 +139,29 @@ impl Drop for TempDir {
     }
 }
 
-/// Every channel of the EXR at `path`, by name, in file order.
-pub fn read_exr(path: &Path) -> (usize, usize, Vec<(String, Vec<f32>)>) {
-    let image = exr::prelude::read()
+/// The EXR at `path` as the `exr` crate reads it: every layer, channel and attribute.
+pub fn read_exr_image(path: &Path) -> exr::image::FlatImage {
+    exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .all_layers()
         .all_attributes()
         .from_file(path)
-        .unwrap();
+        .unwrap()
+}
+
+/// Every channel of the EXR at `path`, by name, in file order.
+pub fn read_exr(path: &Path) -> (usize, usize, Vec<(String, Vec<f32>)>) {
+    let image = read_exr_image(path);
     assert_eq!(image.layer_data.len(), 1);
     let layer = &image.layer_data[0];
-    let channels = layer
+    (layer.size.0, layer.size.1, float_channels(layer))
+}
+
+/// A layer's channels, by name, in file order; each must be float32.
+pub fn float_channels(layer: &exr::image::Layer<exr::image::AnyChannels<FlatSamples>>) -> Vec<(String, Vec<f32>)> {
+    layer
         .channel_data
         .list
         .iter()
@@ -162,8 +172,7 @@ pub fn read_exr(path: &Path) -> (usize, usize, Vec<(String, Vec<f32>)>) {
             };
             (c.name.to_string(), values)
         })
-        .collect();
-    (layer.size.0, layer.size.1, channels)
+        .collect()
 }
 
 /// The channel `name` of [`read_exr`]'s list.
