@@ -160,7 +160,8 @@ impl Device {
     /// they differ in the patch level, and the instruction set Embree traces with, e.g.
     /// `Embree 3.13.5 (ISA AVX-512: native 16-wide packets)`.
     pub fn describe(&self) -> String {
-        let isa = match self.native_packet_width() {
+        let width = self.native_packet_width();
+        let isa = match width {
             16 => "AVX-512",
             8 if cpu_has_avx2() => "AVX2",
             8 => "AVX",
@@ -169,11 +170,7 @@ impl Device {
         };
         let (library, headers) = (self.version(), Self::header_version());
         let built = if library == headers { String::new() } else { format!(", headers {}", version_string(headers)) };
-        format!(
-            "Embree {}{built} (ISA {isa}: native {}-wide packets)",
-            version_string(library),
-            self.native_packet_width()
-        )
+        format!("Embree {}{built} (ISA {isa}: native {width}-wide packets)", version_string(library))
     }
 
     /// `RTC_VERSION` of the headers the bindings were generated from.
