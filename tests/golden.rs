@@ -1,0 +1,119 @@
+//! Golden images: every shipped scene (`scenes/*.toml`), rendered at 96×72 with its own samples
+//! and depth, hashes to the value recorded here, bit for bit over every pass of the film
+//! (RGBA, Z, N, albedo and the extra passes).
+//!
+//! A speed change (a new kernel, packets, a different wrapper) must not change one bit of an
+//! image: if it does, this test names the scene and the backend. A change that is *meant* to
+//! change images (a new shading rule) updates the table below, in the same commit, saying why.
+//!
+//! The native BVH is pure Rust with fixed-order arithmetic, so its hashes hold on any x86_64
+//! machine. Embree's depend on its release and the instruction set it traces with (its
+//! triangle test differs in the last bits between ISAs), so they are checked only on the
+//! release and ISA they were recorded with, and the run says so when it skips them.
+//! FNV-1a (64-bit) over the little-endian bits: a fixed, documented hash, unlike std's.
+
+mod common;
+
+use std::path::Path;
+
+use strahl::embree::Device;
+use strahl::film::Film;
+use strahl::integrator;
+use strahl::scene::file;
+
+const WIDTH: u32 = 96;
+const HEIGHT: u32 = 72;
+
+/// (scene, native BVH hash, Embree hash)
+const GOLDEN: &[(&str, u64, u64)] = &[
+    ("blob", 0x2e4e_e414_ef5f_08f4, 0x097d_6fde_4e16_7a22),
+    ("cornell", 0x7fb8_915e_f829_dfe0, 0xf022_8edb_1615_054f),
+    ("lecture", 0x8a2e_3c75_8656_684e, 0x76b4_cc72_e8ff_95a8),
+    ("spheres", 0x973f_abf9_e0b1_ba75, 0x973f_abf9_e0b1_ba75),
+    ("whitted", 0xace1_ecd7_726a_67a0, 0xace1_ecd7_726a_67a0),
+];
+
+/// The Embree release and ISA the Embree column was recorded with (`strahl --version`).
+const EMBREE_RECORDED: &str = "Embree 3.13.5 (ISA AVX-512";
+
+fn fnv1a(hash: &mut u64, bytes: &[u8]) {
+    for &b in bytes {
+        *hash ^= b as u64;
+        *hash = hash.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+}
+
+fn film_hash(film: &Film) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325;
+    let mut floats = |v: &mut dyn Iterator<Item = f32>| {
+        for x in v {
+            fnv1a(&mut h, &x.to_bits().to_le_bytes());
+        }
+    };
+    floats(&mut film.rgba.iter().flatten().copied());
+    floats(&mut film.depth.iter().copied());
+    floats(&mut film.normal.iter().flat_map(|n| n.to_array()));
+    floats(&mut film.albedo.iter().flat_map(|a| a.to_array()));
+    for aov in &film.aovs {
+        floats(&mut aov.data.iter().copied());
+    }
+    h
+}
+
+fn scene(name: &str) -> strahl::scene::Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(format!("{name}.toml"));
+    let mut scene = file::load(&path).unwrap_or_else(|e| panic!("{e}")).scene;
+    (scene.image.width, scene.image.height) = (WIDTH, HEIGHT);
+    scene
+}
+
+#[test]
+fn every_shipped_scene_is_in_the_table() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut shipped: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.unwrap().file_name().into_string().unwrap();
+            name.strip_suffix(".toml").map(str::to_owned)
+        })
+        .collect();
+    shipped.sort();
+    let table: Vec<&str> = GOLDEN.iter().map(|g| g.0).collect();
+    assert_eq!(shipped, table, "scenes/*.toml and the golden table differ");
+}
+
+#[test]
+fn native_bvh_images_are_bit_identical_to_the_recorded_ones() {
+    let mut wrong = Vec::new();
+    for &(name, golden, _) in GOLDEN {
+        let scene = scene(name);
+        let bvh = strahl::bvh::Bvh::build(&scene).unwrap();
+        let (film, _) = integrator::render(&scene, &bvh, &|_| {}).unwrap();
+        let hash = film_hash(&film);
+        println!("{name}: native {hash:#018x}");
+        if hash != golden {
+            wrong.push(format!("{name}: {hash:#018x}, recorded {golden:#018x}"));
+        }
+    }
+    assert!(wrong.is_empty(), "native images changed: {wrong:?}");
+}
+
+#[test]
+fn embree_images_are_bit_identical_to_the_recorded_ones() {
+    let running = Device::new().unwrap().describe();
+    if !running.starts_with(EMBREE_RECORDED) {
+        eprintln!("skipped: the Embree hashes were recorded with {EMBREE_RECORDED}…), this is {running}");
+        return;
+    }
+    let mut wrong = Vec::new();
+    for &(name, _, golden) in GOLDEN {
+        let scene = scene(name);
+        let (film, _) = common::render(&scene);
+        let hash = film_hash(&film);
+        println!("{name}: embree {hash:#018x}");
+        if hash != golden {
+            wrong.push(format!("{name}: {hash:#018x}, recorded {golden:#018x}"));
+        }
+    }
+    assert!(wrong.is_empty(), "Embree images changed: {wrong:?}");
+}
