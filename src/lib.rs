@@ -26,6 +26,7 @@ pub mod passes;
 pub mod region;
 pub mod sampler;
 pub mod scene;
+pub mod signals;
 pub mod surface;
 pub mod texture;
 pub mod workload;

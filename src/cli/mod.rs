@@ -54,6 +54,8 @@ pub fn version_report() -> String {
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    // SIGINT/SIGTERM remove the temporary files of outputs being written (strahl::signals).
+    strahl::signals::install().context("cannot install the signal handlers")?;
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),

@@ -13,14 +13,13 @@
 //! backends' hits differ (see `strahl crosscheck`).
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::progress::Progress;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use signal_hook::consts::{SIGINT, SIGTERM};
 use strahl::Accel;
 use strahl::bvh::Bvh;
 use strahl::checkpoint;
@@ -344,13 +343,10 @@ fn render<A: Accel>(
     let todo: Vec<usize> = (0..tiles.len()).filter(|k| !done.contains(k)).collect();
     let todo_tiles: Vec<Region> = todo.iter().map(|&k| tiles[k]).collect();
 
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [SIGINT, SIGTERM] {
-        // A second SIGINT (stop already set) exits at once; the first only sets the flag.
-        signal_hook::flag::register_conditional_shutdown(signal, 1, Arc::clone(&stop))
-            .and_then(|_| signal_hook::flag::register(signal, Arc::clone(&stop)))
-            .context("cannot install the signal handlers")?;
-    }
+    // While the tiles are traced, the first SIGINT/SIGTERM only asks to stop (the checkpoint
+    // is saved below); a second one, or any during the writing, exits at once (crate::signals).
+    let stop = strahl::signals::stop_requested();
+    strahl::signals::graceful(true);
     let finished = Mutex::new(done);
     let last_save = Mutex::new(Instant::now());
     let save_failed = AtomicBool::new(false);
@@ -385,10 +381,10 @@ fn render<A: Accel>(
     bar.inc(tiles.iter().zip(0..).filter(|(_, k)| !todo.contains(k)).map(|(t, _)| t.pixel_count()).sum());
     let render_start = Instant::now();
     let progress = |done| bar.inc(done);
-    let job = TileJob { tiles: &todo_tiles, stop: Some(&stop), progress: &progress, on_tile: &on_tile };
-    let (film, rays) = pool
-        .install(|| integrator::render_tiles(scene, accel, film, &job))
-        .with_context(|| format!("{}: rendering failed", path.display()))?;
+    let job = TileJob { tiles: &todo_tiles, stop: Some(stop), progress: &progress, on_tile: &on_tile };
+    let rendered = pool.install(|| integrator::render_tiles(scene, accel, film, &job));
+    strahl::signals::graceful(false);
+    let (film, rays) = rendered.with_context(|| format!("{}: rendering failed", path.display()))?;
     let render_seconds = render_start.elapsed().as_secs_f64();
     bar.finish();
     if stop.load(Ordering::Relaxed) {

@@ -1,6 +1,11 @@
 //! Writing a file all at once or not at all: the bytes go to a temporary file in the
 //! destination's directory, which is then renamed over the destination (atomic on one file
 //! system). On any error the temporary file is removed and the destination is untouched.
+//!
+//! The temporary name is short, `.strahl-PID-N.tmp`, so that any legal output name works (a
+//! name derived from the output's would exceed the 255-byte limit for long ones). While it
+//! exists it is registered with [`crate::signals`], which removes it if SIGINT or SIGTERM ends
+//! the process. `STRAHL_TEST_WRITE_DELAY_MS` (for tests) waits that long after creating it.
 
 use std::fs::{self, OpenOptions};
 use std::io::{self, Write};
@@ -43,30 +48,38 @@ pub fn write_atomically_with(
 ) -> Result<(), WriteError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let dir = directory_of(path);
-    let name = path.file_name().ok_or_else(|| WriteError::new(path, "is not a file name"))?;
+    if path.file_name().is_none() {
+        return Err(WriteError::new(path, "is not a file name"));
+    }
     if !dir.is_dir() {
         return Err(WriteError::new(path, format!("the directory {} does not exist", dir.display())));
     }
     // A name unique to this process and call; `create_new` refuses to reuse a leftover.
     let (file, tmp) = loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let tmp = dir.join(format!(".{}.{}.{n}.tmp", name.to_string_lossy(), std::process::id()));
+        let tmp = dir.join(format!(".strahl-{}-{n}.tmp", std::process::id()));
         match OpenOptions::new().read(true).write(true).create_new(true).open(&tmp) {
-            Ok(file) => break (file, tmp),
+            Ok(file) => {
+                crate::signals::track(&tmp);
+                break (file, tmp);
+            }
             Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => continue,
             Err(e) => return Err(WriteError::new(path, format!("cannot create a file in {}: {e}", dir.display()))),
         }
     };
+    if let Some(ms) = std::env::var("STRAHL_TEST_WRITE_DELAY_MS").ok().and_then(|v| v.parse().ok()) {
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+    }
     let result = (|| -> io::Result<()> {
         let mut buffered = io::BufWriter::with_capacity(1 << 20, file);
         write(&mut buffered)?;
         let file = buffered.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
         drop(file);
-        fs::rename(&tmp, path)
+        crate::signals::untrack(&tmp, || fs::rename(&tmp, path))
     })();
     result.map_err(|e| {
-        let _ = fs::remove_file(&tmp);
+        crate::signals::untrack(&tmp, || fs::remove_file(&tmp)).ok();
         WriteError::new(path, format!("cannot write: {e}"))
     })
 }
@@ -106,6 +119,16 @@ mod tests {
         write_atomically(&path, b"second").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"second");
         assert_eq!(entries(&dir.0), ["a.bin"]);
+    }
+
+    #[test]
+    fn a_255_byte_output_name_works() {
+        // The longest name a Linux file system allows; the temporary name must not grow it.
+        let dir = TempDir::new("long");
+        let path = dir.0.join(format!("{}.exr", "n".repeat(251)));
+        write_atomically(&path, b"long").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"long");
+        assert_eq!(entries(&dir.0).len(), 1);
     }
 
     #[test]
