@@ -28,7 +28,12 @@ pub struct PixelSampler {
 /// The strata grid `(nx, ny)` for `spp` samples: `ny` is the largest divisor of `spp` with
 /// `ny² ≤ spp`, `nx = spp / ny`.
 pub fn strata(spp: u32) -> (u32, u32) {
-    let ny = (1..=spp.max(1)).take_while(|d| d * d <= spp).filter(|d| spp % d == 0).last().unwrap_or(1);
+    // In u64: `d·d` cannot overflow for any u32 `spp`.
+    let ny = (1..=spp.max(1))
+        .take_while(|&d| d as u64 * d as u64 <= spp as u64)
+        .filter(|d| spp % d == 0)
+        .last()
+        .unwrap_or(1);
     (spp.max(1) / ny, ny)
 }
 
@@ -71,6 +76,8 @@ mod tests {
     #[test]
     fn strata_are_as_square_as_the_count_allows() {
         assert_eq!(strata(1), (1, 1));
+        // No overflow at the top of the range: 2³² − 1 = 3·5·17·257·65537.
+        assert_eq!(strata(u32::MAX), (65537, 65535));
         assert_eq!(strata(2), (2, 1));
         assert_eq!(strata(4), (2, 2));
         assert_eq!(strata(8), (4, 2));

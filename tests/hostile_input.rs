@@ -211,3 +211,33 @@ fn ply_counts_no_file_can_back_are_refused_at_once() {
     let r = run(&dir, &["info", path.to_str().unwrap()]);
     assert_eq!(r.status, Some(0), "{}", r.stderr);
 }
+
+#[test]
+fn sample_counts_and_depths_beyond_the_limits_are_refused_at_their_place() {
+    let dir = TempDir::new("limits");
+    let scene = |image: &str| {
+        format!("[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\n[image]\n{image}\n")
+    };
+    let spp = dir.write("spp.toml", scene("spp = 4294967295"));
+    let e = refused_quickly(&dir, &spp);
+    assert_eq!(
+        e,
+        format!(
+            "error: {}:8:7: image: spp 4294967295 is more than the 65536 samples per pixel strahl takes",
+            spp.display()
+        )
+    );
+    let depth = dir.write("depth.toml", scene("max_depth = 1000"));
+    let e = refused_quickly(&dir, &depth);
+    assert_eq!(
+        e,
+        format!("error: {}:8:13: image: max_depth 1000 is more than the 256 bounces strahl follows", depth.display())
+    );
+    // The command line's override is checked too, before anything is rendered.
+    let ok = dir.write("ok.toml", scene("spp = 1"));
+    let out = dir.path("out.exr");
+    let r = run(&dir, &["render", ok.to_str().unwrap(), "--spp", "4294967295", "-o", out.to_str().unwrap()]);
+    assert_eq!(r.status, Some(1), "{}", r.stderr);
+    assert!(r.stderr.contains("spp 4294967295 is more than the 65536"), "{}", r.stderr);
+    assert!(!out.exists());
+}

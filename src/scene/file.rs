@@ -33,6 +33,9 @@ use crate::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
 pub const MAX_RANDOM_SPHERES: u64 = 10_000_000;
 /// Most pixels an image may have (8192 × 8192).
 pub const MAX_PIXELS: u64 = 1 << 26;
+/// Most samples per pixel (256 × 256 strata): beyond it noise no longer falls visibly, and a
+/// typo such as `spp = 4294967295` would never finish.
+pub const MAX_SPP: u32 = 1 << 16;
 
 /// Why a scene file could not be loaded. Displays as one line naming the file.
 #[derive(Debug, thiserror::Error)]
@@ -139,6 +142,11 @@ pub fn image_problem(image: &ImageSpec) -> Option<(&'static str, String)> {
         ))
     } else if image.spp == 0 {
         Some(("spp", "spp (samples per pixel) must be at least 1".into()))
+    } else if image.spp > MAX_SPP {
+        Some(("spp", format!("spp {} is more than the {MAX_SPP} samples per pixel strahl takes", image.spp)))
+    } else if image.max_depth > crate::integrator::MAX_DEPTH_LIMIT {
+        let limit = crate::integrator::MAX_DEPTH_LIMIT;
+        Some(("max_depth", format!("max_depth {} is more than the {limit} bounces strahl follows", image.max_depth)))
     } else if !image.background.is_finite() || image.background.min_element() < 0.0 {
         Some(("background", format!("background {} must be finite and ≥ 0", image.background)))
     } else if !image.ambient.is_finite() || image.ambient.min_element() < 0.0 {
@@ -469,6 +477,7 @@ impl ImageFile {
                 "width" => self.width.as_ref().map(|v| v.span()),
                 "height" => self.height.as_ref().map(|v| v.span()),
                 "spp" => self.spp.as_ref().map(|v| v.span()),
+                "max_depth" => self.max_depth.as_ref().map(|v| v.span()),
                 _ => None,
             };
             return Err(at(field_span.unwrap_or_else(|| span.clone()), format!("image: {message}")));
