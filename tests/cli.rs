@@ -501,3 +501,17 @@ fn malformed_command_lines_are_one_line_too() {
     let out = strahl(&["--help"]);
     assert!(out.status.success() && text(&out.stdout).contains("render"));
 }
+
+#[test]
+fn negative_numbers_are_refused_naming_their_option() {
+    let scene = format!("{}/scenes/spheres.toml", env!("CARGO_MANIFEST_DIR"));
+    for (option, value) in
+        [("--width", "-1"), ("--height", "-7"), ("--spp", "-4"), ("--depth", "-2"), ("--threads", "-1")]
+    {
+        let out = common::strahl(&["render", &scene, "-o", "/nonexistent-dir/x.exr", option, value]);
+        let stderr = common::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{option} {value}: {stderr}");
+        assert!(stderr.starts_with(&format!("error: invalid value '{value}' for '{option} <")), "{stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    }
+}

@@ -241,3 +241,37 @@ fn sample_counts_and_depths_beyond_the_limits_are_refused_at_their_place() {
     assert!(r.stderr.contains("spp 4294967295 is more than the 65536"), "{}", r.stderr);
     assert!(!out.exists());
 }
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let dir = TempDir::new("clobber");
+    let mesh = dir.write("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let text = concat!(
+        "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\n[image]\nwidth = 4\nheight = 3\n\n",
+        "[[objects]]\ntype = \"mesh\"\npath = \"m.obj\"\n"
+    );
+    let png_named = dir.write("scene.png", text);
+    let exr_named = dir.write("scene.exr", text);
+    let toml = dir.write("scene.toml", text);
+    std::fs::hard_link(&toml, dir.path("hard.exr")).unwrap();
+    std::os::unix::fs::symlink(&toml, dir.path("soft.png")).unwrap();
+    std::fs::hard_link(&mesh, dir.path("mesh.exr")).unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_owned();
+    let cases: Vec<(Vec<String>, &Path)> = vec![
+        (vec![s(&png_named), "-o".into(), s(&dir.path("out.exr")), "--png".into(), s(&png_named)], &png_named),
+        (vec![s(&exr_named), "-o".into(), s(&exr_named)], &exr_named),
+        (vec![s(&toml), "-o".into(), s(&dir.path("hard.exr"))], &toml),
+        (vec![s(&toml), "-o".into(), s(&dir.path("out.exr")), "--png".into(), s(&dir.path("soft.png"))], &toml),
+        (vec![s(&toml), "-o".into(), s(&dir.path("mesh.exr"))], &mesh),
+    ];
+    for (args, input) in cases {
+        let mut all = vec!["render"];
+        all.extend(args.iter().map(String::as_str));
+        let e = common::fails(&dir, &all);
+        assert!(e.contains(&format!("is an input ({})", input.display())), "{all:?}: {e}");
+    }
+    for f in [&png_named, &exr_named, &toml] {
+        assert_eq!(std::fs::read_to_string(f).unwrap(), text, "{f:?} changed");
+    }
+    assert_eq!(std::fs::read_to_string(&mesh).unwrap(), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+}

@@ -31,6 +31,7 @@ use strahl::io::MeshFormat;
 use strahl::io::atomic::{directory_of, write_atomically};
 use strahl::io::exr::{Compression, ExrOptions, Layout};
 use strahl::io::metadata::RenderInfo;
+use strahl::io::same_file::same_file;
 use strahl::passes::{MAX_CRYPTO_LEVELS, PassSet};
 use strahl::region::Region;
 use strahl::scene::Scene;
@@ -51,19 +52,19 @@ pub struct RenderArgs {
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
     /// Image width in pixels (overrides the scene's).
-    #[arg(long, value_name = "W", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
     /// Image height in pixels (overrides the scene's).
-    #[arg(long, value_name = "H", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "H", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     height: Option<u32>,
     /// Samples per pixel (overrides the scene's).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     spp: Option<u32>,
     /// Longest chain of reflected/refracted rays (overrides the scene's max_depth).
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", allow_negative_numbers = true)]
     depth: Option<u32>,
     /// Worker threads for rendering, Embree's BVH build and EXR compression [default: one per core].
-    #[arg(long, value_name = "T", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    #[arg(long, value_name = "T", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=4096))]
     threads: Option<u32>,
     /// Exposure of the PNG preview in stops: its radiance is multiplied by 2^EV.
     #[arg(long, value_name = "EV", default_value_t = 0.0, allow_negative_numbers = true)]
@@ -81,7 +82,7 @@ pub struct RenderArgs {
     #[arg(long)]
     transparent: bool,
     /// Cryptomatte ranks per pixel (overrides the scene's `cryptomatte_levels`).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_CRYPTO_LEVELS as i64))]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=MAX_CRYPTO_LEVELS as i64))]
     cryptomatte_levels: Option<u32>,
     /// Channel naming of the EXR: Blender's multilayer names, or Nuke's.
     #[arg(long, value_enum, default_value_t = LayoutArg::Blender)]
@@ -103,7 +104,7 @@ pub struct RenderArgs {
     tile: Option<String>,
     /// Save the finished tiles to OUT.exr.checkpoint every this many seconds (0: after every
     /// tile); SIGINT and SIGTERM save it too before exiting.
-    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, allow_negative_numbers = true)]
     checkpoint_every: f64,
     /// Continue from OUT.exr.checkpoint (when it exists): trace only the tiles it lacks. The
     /// result is the same bytes as an uninterrupted render.
@@ -152,11 +153,27 @@ fn check_output(path: &Path, extension: &str, what: &str) -> anyhow::Result<()> 
     Ok(())
 }
 
+/// Refuses, before rendering, an output (EXR, PNG, checkpoint) that is the scene file or a
+/// mesh file it names, through any link or spelling (`strahl::io::same_file`).
+fn refuse_inputs_as_outputs(args: &RenderArgs, loaded: &strahl::scene::Loaded) -> anyhow::Result<()> {
+    let checkpoint = checkpoint::path_for(&args.output);
+    let outputs = [Some(&args.output), args.png.as_ref(), Some(&checkpoint)];
+    let inputs = std::iter::once(&args.scene).chain(loaded.objects.iter().filter_map(|o| o.file.as_ref()));
+    for input in inputs {
+        for output in outputs.iter().flatten() {
+            if same_file(input, output) {
+                bail!("{}: is an input ({}); writing there would destroy it", output.display(), input.display());
+            }
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     check_output(&args.output, "exr", "OpenEXR output (-o)")?;
     if let Some(png) = &args.png {
         check_output(png, "png", "PNG preview (--png)")?;
-        if png == &args.output {
+        if same_file(png, &args.output) {
             bail!("{}: given as both the EXR and the PNG output", png.display());
         }
     }
@@ -171,7 +188,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
 
-    let mut scene = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?.scene;
+    let loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
+    refuse_inputs_as_outputs(&args, &loaded)?;
+    let mut scene = loaded.scene;
     let image = &mut scene.image;
     image.width = args.width.unwrap_or(image.width);
     image.height = args.height.unwrap_or(image.height);

@@ -12,6 +12,7 @@ pub mod ply;
 pub mod png;
 pub mod polygon;
 pub mod read;
+pub mod same_file;
 mod text;
 
 pub use atomic::{WriteError, write_atomically};
