@@ -275,3 +275,27 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
     }
     assert_eq!(std::fs::read_to_string(&mesh).unwrap(), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
 }
+
+#[test]
+fn fixed_length_arrays_refuse_extra_and_missing_elements_at_their_place() {
+    let dir = TempDir::new("arrays");
+    let camera = |eye: &str| format!("[camera]\neye = {eye}\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n");
+    let cases = [
+        (camera("[0, 1, 5, 6]"), "2:7: more than the 3 elements expected"),
+        (camera("[0, 1]"), "2:7: 2 elements where 3 are expected"),
+        (
+            camera("[0, 1, 5]") + "\n[[lights]]\ntype = \"point\"\nposition = [4, 8, 6, \"x\"]\nintensity = 100\n",
+            "9:12: more than the 3 elements expected",
+        ),
+        (
+            camera("[0, 1, 5]")
+                + "\n[[objects]]\ntype = \"triangles\"\npositions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\nindices = [[0, 1, 2, 7]]\n",
+            "10:12: more than the 3 elements expected",
+        ),
+    ];
+    for (i, (text, expected)) in cases.iter().enumerate() {
+        let file = dir.write(&format!("s{i}.toml"), text);
+        let e = refused_quickly(&dir, &file);
+        assert_eq!(e, format!("error: {}:{expected}", file.display()));
+    }
+}

@@ -178,7 +178,49 @@ pub fn camera_problem(camera: &CameraSpec) -> Option<(&'static str, String)> {
 // ---------------------------------------------------------------------------------------------
 // The schema, as serde reads it.
 
-type V3 = [f64; 3];
+type V3 = Fixed<f64, 3>;
+
+/// An array of exactly `N` elements: one more (`eye = [0, 1, 5, 6]`, `indices = [[0, 1, 2, 7]]`)
+/// is an error at its place, not silently dropped as serde's `[T; N]` does with TOML.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Fixed<T, const N: usize>([T; N]);
+
+impl<T, const N: usize> std::ops::Deref for Fixed<T, N> {
+    type Target = [T; N];
+    fn deref(&self) -> &[T; N] {
+        &self.0
+    }
+}
+
+impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Fixed<T, N> {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct FixedVisitor<T, const N: usize>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for FixedVisitor<T, N> {
+            type Value = Fixed<T, N>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "an array of {N} elements")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Fixed<T, N>, A::Error> {
+                let mut items = Vec::with_capacity(N);
+                while items.len() < N {
+                    match seq.next_element()? {
+                        Some(x) => items.push(x),
+                        None => {
+                            let n = items.len();
+                            return Err(de::Error::custom(format!("{n} elements where {N} are expected")));
+                        }
+                    }
+                }
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::custom(format!("more than the {N} elements expected")));
+                }
+                let array: [T; N] = items.try_into().map_err(|_| de::Error::invalid_length(N, &self))?;
+                Ok(Fixed(array))
+            }
+        }
+        deserializer.deserialize_seq(FixedVisitor::<T, N>(std::marker::PhantomData))
+    }
+}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -350,7 +392,7 @@ fn number(value: &Spanned<f64>, what: &str) -> Result<f64, Problem> {
 }
 
 fn point(value: &Spanned<V3>, what: &str) -> Result<DVec3, Problem> {
-    let v = *value.get_ref();
+    let v = value.get_ref().0;
     if v.iter().all(|&x| is_finite32(x)) {
         Ok(DVec3::from(v))
     } else {

@@ -14,7 +14,9 @@ use glam::DVec3;
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::{MAX_RANDOM_SPHERES, Problem, Triple, V3, at, direction, fmt3, is_finite32, number, point, required};
+use super::{
+    Fixed, MAX_RANDOM_SPHERES, Problem, Triple, V3, at, direction, fmt3, is_finite32, number, point, required,
+};
 use crate::geometry::Sphere;
 use crate::io::{MeshError, MeshOptions, load_mesh};
 use crate::math::{Aabb, Vec3};
@@ -96,14 +98,14 @@ pub(super) struct ObjectFile {
     point: Option<Spanned<V3>>,
     // triangles
     positions: Option<Spanned<Vec<V3>>>,
-    indices: Option<Spanned<Vec<[u32; 3]>>>,
+    indices: Option<Spanned<Vec<Fixed<u32, 3>>>>,
     normals: Option<Spanned<Vec<V3>>>,
     colors: Option<Spanned<Vec<V3>>>,
     // random_spheres
     count: Option<Spanned<u64>>,
     seed: Option<Spanned<u64>>,
-    bounds: Option<Spanned<[V3; 2]>>,
-    radii: Option<Spanned<[f64; 2]>>,
+    bounds: Option<Spanned<Fixed<V3, 2>>>,
+    radii: Option<Spanned<Fixed<f64, 2>>>,
     // instance
     of: Option<Spanned<String>>,
     // mesh
@@ -420,7 +422,7 @@ impl ObjectFile {
             list.get_ref()
                 .iter()
                 .enumerate()
-                .map(|(i, &v)| {
+                .map(|(i, &Fixed(v))| {
                     if v.iter().all(|&x| is_finite32(x)) {
                         Ok(DVec3::from(v).as_vec3())
                     } else {
@@ -434,7 +436,7 @@ impl ObjectFile {
         let mut mesh = Mesh {
             name: self.name.as_ref().map_or_else(|| format!("object {}", ctx.index), |n| n.get_ref().clone()),
             positions: vectors(positions, "positions")?,
-            indices: indices.get_ref().clone(),
+            indices: indices.get_ref().iter().map(|i| i.0).collect(),
             ..Default::default()
         };
         if let Some(normals) = &self.normals {
@@ -474,7 +476,7 @@ impl ObjectFile {
         }
         let seed = self.seed.as_ref().map_or(0, |s| *s.get_ref());
         let bounds_value = required(&self.bounds, "bounds", &ctx.span)?;
-        let [lo, hi] = *bounds_value.get_ref();
+        let Fixed([Fixed(lo), Fixed(hi)]) = *bounds_value.get_ref();
         let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
         if !(lo.to_array().into_iter().chain(hi.to_array()).all(is_finite32) && lo.cmple(hi).all()) {
             return Err(at(
@@ -483,7 +485,7 @@ impl ObjectFile {
             ));
         }
         let radii_value = required(&self.radii, "radii", &ctx.span)?;
-        let [r0, r1] = *radii_value.get_ref();
+        let Fixed([r0, r1]) = *radii_value.get_ref();
         if !(is_finite32(r0) && is_finite32(r1) && 0.0 < r0 && r0 <= r1) {
             return Err(at(radii_value.span(), format!("radii [{r0}, {r1}] must satisfy 0 < min ≤ max")));
         }
