@@ -299,3 +299,44 @@ fn fixed_length_arrays_refuse_extra_and_missing_elements_at_their_place() {
         assert_eq!(e, format!("error: {}:{expected}", file.display()));
     }
 }
+
+#[test]
+fn repeated_libraries_and_many_unknown_statements_load_with_bounded_warnings() {
+    let dir = TempDir::new("statements");
+    let triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+    // A library named 5,000 times, and the OBJ naming itself as its library 5,000 times: each
+    // file is parsed once (this took minutes and gigabytes before), and later definitions win.
+    dir.write("red.mtl", "newmtl red\nKd 1 0 0\n");
+    dir.write("blue.mtl", "newmtl red\nKd 0 0 1\n");
+    let many = dir.write("many.obj", "mtllib blue.mtl\n".to_owned() + &"mtllib red.mtl\n".repeat(5000) + triangle);
+    let r = run(&dir, &["info", many.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    let me = dir.write("me.obj", "mtllib me.obj\n".repeat(5000) + "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let r = run(&dir, &["info", me.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    let warnings: Vec<&str> = r.stderr.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0]
+            .ends_with("ignored (not supported): mtllib before any newmtl, v before any newmtl, f before any newmtl"),
+        "{}",
+        warnings[0]
+    );
+    // 20,000 distinct unknown statements: 16 listed, the rest summed in one line.
+    let unknown: String = (0..20_000).map(|i| format!("zz{i} 1 2\n")).collect();
+    let obj = dir.write("unknown.obj", unknown.clone() + "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let r = run(&dir, &["info", obj.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    let warnings: Vec<&str> = r.stderr.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 17, "{warnings:?}");
+    assert_eq!(warnings[0], format!("warning: {}:1: skipped 1 unknown statements 'zz0'", obj.display()));
+    assert_eq!(
+        warnings[16],
+        format!("warning: {}:17: skipped 19984 more statements of 19984 other unknown keywords", obj.display())
+    );
+    dir.write("unknown.mtl", "newmtl red\n".to_owned() + &unknown);
+    let obj = dir.write("uses.obj", "mtllib unknown.mtl\n".to_owned() + triangle);
+    let r = run(&dir, &["info", obj.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert!(r.stderr.contains("zz14, zz15, and 19984 more"), "{}", r.stderr);
+}

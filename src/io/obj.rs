@@ -42,7 +42,7 @@
 //! the faces that use its materials get a default material, as do faces before any `usemtl`
 //! and faces whose `usemtl` names a material no library defines.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use super::mesh::{LoadedMesh, MeshError, MeshOptions, Parsed, RawMesh, finish};
@@ -53,6 +53,8 @@ use crate::math::{Vec2, Vec3};
 
 /// "No index" in a corner's `vt` or `vn` slot.
 const NONE: u32 = u32::MAX;
+/// Unknown keywords listed one by one in the warnings; the rest are summed in one line.
+const MAX_LISTED: usize = 16;
 
 /// One face corner: position, texture coordinate and normal indices (0-based, `NONE` if
 /// absent).
@@ -119,8 +121,10 @@ struct Reader<'p> {
     attributes: bool,
     triangles_read: usize,
     degenerate: usize,
-    /// Statements skipped, by keyword: (count, first line).
+    /// Statements skipped, by keyword: (count, first line), in first-seen order, and each
+    /// keyword's place in that list (a hash, so that many distinct keywords stay linear).
     skipped: Vec<(String, usize, usize)>,
+    skipped_index: HashMap<String, usize>,
     corners: Vec<Corner>,
     corner_positions: Vec<Vec3>,
     ears: Vec<[u32; 3]>,
@@ -144,6 +148,7 @@ impl<'p> Reader<'p> {
             triangles_read: 0,
             degenerate: 0,
             skipped: Vec::new(),
+            skipped_index: HashMap::new(),
             corners: Vec::new(),
             corner_positions: Vec::new(),
             ears: Vec::new(),
@@ -240,9 +245,12 @@ impl<'p> Reader<'p> {
 
     fn skip(&mut self, keyword: &[u8], line_no: usize) {
         let keyword = show(keyword);
-        match self.skipped.iter_mut().find(|(k, ..)| *k == keyword) {
-            Some((_, count, _)) => *count += 1,
-            None => self.skipped.push((keyword, 1, line_no)),
+        match self.skipped_index.get(&keyword) {
+            Some(&i) => self.skipped[i].1 += 1,
+            None => {
+                self.skipped_index.insert(keyword.clone(), self.skipped.len());
+                self.skipped.push((keyword, 1, line_no));
+            }
         }
     }
 
@@ -321,7 +329,7 @@ impl<'p> Reader<'p> {
     fn finish(self, options: &MeshOptions) -> Result<LoadedMesh, MeshError> {
         let path = self.path;
         let mut warnings = Vec::new();
-        for (keyword, count, line) in &self.skipped {
+        for (keyword, count, line) in self.skipped.iter().take(MAX_LISTED) {
             let what = match keyword.as_str() {
                 "l" => "line elements".to_string(),
                 "p" => "point elements".to_string(),
@@ -330,6 +338,15 @@ impl<'p> Reader<'p> {
                 _ => format!("unknown statements '{keyword}'"),
             };
             warnings.push(format!("{}:{line}: skipped {count} {what}", path.display()));
+        }
+        if let Some((_, _, line)) = self.skipped.get(MAX_LISTED) {
+            let rest = &self.skipped[MAX_LISTED..];
+            let count: usize = rest.iter().map(|(_, c, _)| c).sum();
+            warnings.push(format!(
+                "{}:{line}: skipped {count} more statements of {} other unknown keywords",
+                path.display(),
+                rest.len()
+            ));
         }
         if let Some(colors) = &self.colors {
             let uncolored = self.uncolored;
@@ -346,6 +363,7 @@ impl<'p> Reader<'p> {
         let dir = path.parent().unwrap_or(Path::new(""));
         let mut materials: Vec<Material> = Vec::new();
         let mut by_name: HashMap<String, u32> = HashMap::new();
+        let mut parsed: HashMap<PathBuf, Vec<Material>> = HashMap::new();
         for (name, line) in &self.libraries {
             let files = library_files(dir, name);
             if files.is_empty() {
@@ -355,9 +373,15 @@ impl<'p> Reader<'p> {
                 ));
             }
             for file in files {
-                // A library that cannot be read is an error at the `mtllib` line naming it.
-                let data = super::mesh::read_file(&file).map_err(|e| MeshError::at(path, *line, e.to_string()))?;
-                for m in parse_mtl(&file, &data, &mut warnings)? {
+                // Each library is read and parsed once, however often `mtllib` names it; its
+                // materials are applied at every naming, so later definitions still win.
+                if !parsed.contains_key(&file) {
+                    // A library that cannot be read is an error at the `mtllib` line naming it.
+                    let data = super::mesh::read_file(&file).map_err(|e| MeshError::at(path, *line, e.to_string()))?;
+                    let library = parse_mtl(&file, &data, &mut warnings)?;
+                    parsed.insert(file.clone(), library);
+                }
+                for m in parsed[&file].iter().cloned() {
                     match by_name.get(&m.name) {
                         Some(&i) => materials[i as usize] = m,
                         None => {
@@ -564,6 +588,7 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
     let data = data.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(data);
     let mut blocks: Vec<MtlBlock> = Vec::new();
     let mut ignored: Vec<(String, usize)> = Vec::new();
+    let mut ignored_seen: HashSet<String> = HashSet::new();
     for (line_no, line) in text::lines(data) {
         let line = match line.iter().position(|&b| b == b'#') {
             Some(i) => &line[..i],
@@ -582,7 +607,10 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
             continue;
         }
         let Some(block) = blocks.last_mut() else {
-            ignored.push((format!("{} before any newmtl", show(keyword)), line_no));
+            let what = format!("{} before any newmtl", show(keyword));
+            if ignored_seen.insert(what.clone()) {
+                ignored.push((what, line_no));
+            }
             continue;
         };
         let color = |words: &mut dyn Iterator<Item = &[u8]>| -> Result<Option<Vec3>, MeshError> {
@@ -643,14 +671,19 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
             }
             other => {
                 let other = show(other);
-                if !ignored.iter().any(|(k, _)| *k == other) {
+                if ignored_seen.insert(other.clone()) {
                     ignored.push((other, line_no));
                 }
             }
         }
     }
     if !ignored.is_empty() {
-        let list: Vec<&str> = ignored.iter().map(|(k, _)| k.as_str()).collect();
+        let mut list: Vec<&str> = ignored.iter().take(MAX_LISTED).map(|(k, _)| k.as_str()).collect();
+        let more = ignored.len().saturating_sub(MAX_LISTED);
+        let more = format!("and {more} more");
+        if ignored.len() > MAX_LISTED {
+            list.push(&more);
+        }
         warnings.push(format!("{}:{}: ignored (not supported): {}", path.display(), ignored[0].1, list.join(", ")));
     }
     Ok(blocks.iter().map(MtlBlock::material).collect())
@@ -745,5 +778,18 @@ mod tests {
             }
             let _ = parse(Path::new("g.obj"), &d, &MeshOptions { smooth_normals: true });
         }
+    }
+
+    #[test]
+    fn a_library_named_again_wins_again() {
+        let dir = std::env::temp_dir().join(format!("strahl-obj-mtl-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.mtl"), "newmtl m\nKd 1 0 0\n").unwrap();
+        std::fs::write(dir.join("b.mtl"), "newmtl m\nKd 0 0 1\n").unwrap();
+        let text = "mtllib a.mtl\nmtllib b.mtl\nmtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n";
+        let l = parse(&dir.join("t.obj"), text.as_bytes(), &MeshOptions::default()).unwrap();
+        assert_eq!(l.materials.len(), 1);
+        assert_eq!(l.materials[0].diffuse, Texture::Constant(Vec3::new(1.0, 0.0, 0.0)));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
