@@ -323,6 +323,11 @@ fn degenerate_cameras_are_refused() {
     assert_at(&e, 4, "camera: up [0, 1, 0] is parallel to the view direction");
     let e = error("[camera]\neye = [1, 2, 3]\ntarget = [1, 2, 3]\nfov_deg = 40\n");
     assert_at(&e, 3, "eye and target are both [1, 2, 3]");
+    // Finite but too far apart for f32: the reason is the distance, not a missing direction.
+    let e = error("[camera]\neye = [3e38, 0, 0]\ntarget = [-3e38, 0, 0]\nfov_deg = 40\n");
+    assert_at(&e, 2, "are too far apart: their distance overflows f32");
+    let e = error("[camera]\neye = [3e38, 0, 0]\ntarget = [0, 0, 0]\nfov_deg = 40\n");
+    assert_at(&e, 2, "are too far apart: their distance overflows f32");
     let e = error("[camera]\neye = [0, 1, 5]\ntarget = [0, 0, 0]\nfov_deg = 180\n");
     assert_at(&e, 4, "fov_deg 180 must lie between 0 and 180");
 }

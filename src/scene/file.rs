@@ -161,7 +161,16 @@ pub fn image_problem(image: &ImageSpec) -> Option<(&'static str, String)> {
 pub fn camera_problem(camera: &CameraSpec) -> Option<(&'static str, String)> {
     let view = camera.eye - camera.target;
     let w = view.normalize_or_zero();
-    if w == Vec3::ZERO || !w.is_finite() {
+    if !view.length().is_finite() {
+        // Finite coordinates whose difference (or its length) overflows f32, e.g. eye = [3e38, 0, 0].
+        Some((
+            "eye",
+            format!(
+                "eye {} and target {} are too far apart: their distance overflows f32 (about 1.8e19 at most)",
+                camera.eye, camera.target
+            ),
+        ))
+    } else if w == Vec3::ZERO || !w.is_finite() {
         Some(("target", format!("eye and target are both {}: the camera has no view direction", camera.eye)))
     } else if camera.up.cross(w).length() <= 1e-6 * camera.up.length() {
         Some((
@@ -491,6 +500,7 @@ impl CameraFile {
         };
         if let Some((field, message)) = camera_problem(&spec) {
             let field_span = match field {
+                "eye" => Some(self.eye.span()),
                 "target" => Some(self.target.span()),
                 "up" => self.up.as_ref().map(|u| u.span()),
                 "fov_deg" => Some(self.fov_deg.span()),
