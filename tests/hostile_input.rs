@@ -340,3 +340,81 @@ fn repeated_libraries_and_many_unknown_statements_load_with_bounded_warnings() {
     assert_eq!(r.status, Some(0), "{}", r.stderr);
     assert!(r.stderr.contains("zz14, zz15, and 19984 more"), "{}", r.stderr);
 }
+
+#[test]
+fn non_planar_and_self_crossing_polygons_load_with_one_warning() {
+    use strahl::io::{MeshOptions, load_mesh};
+    let dir = TempDir::new("polygons");
+    // A unit cube of six planar quads (12 triangles), then at line 23 a non-planar quad whose
+    // projection onto the zx plane folds over itself (its Newell normal is (-4, -9, -6)), at
+    // line 24 a bow tie, at line 25 the non-planar quad again.
+    let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    let extra = "v -1 2 1\nv 2 -1 -2\nv 2 0 2\nv -1 -1 0\nv 5 0 0\nv 6 1 0\nv 6 0 0\nv 5 1 0\n\
+                 f 9 10 11 12\nf 13 14 15 16\nf 9 10 11 12\n";
+    let obj = dir.write("scan.obj", cube.to_owned() + extra);
+    let l = load_mesh(&obj, &MeshOptions::default()).unwrap();
+    assert_eq!(l.triangles_read, 18);
+    assert_eq!(l.triangle_count(), 18);
+    assert_eq!(l.degenerate_dropped, 0);
+    assert_eq!(
+        l.warnings,
+        vec![format!(
+            "{}:23: 3 faces are not simple polygons: 2 non-planar (triangulated in their best-fit plane), \
+             1 crossing or overlapping themselves (split as fans)",
+            obj.display()
+        )]
+    );
+    // The same through the command line: one warning line, and it loads.
+    let r = run(&dir, &["info", obj.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert_eq!(r.stderr.lines().filter(|l| l.starts_with("warning:")).count(), 1, "{}", r.stderr);
+    // The bow tie alone, as ASCII PLY: two fan triangles, the warning at the face's line.
+    let ply = dir.write(
+        "bow.ply",
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0\n1 1 0\n1 0 0\n0 1 0\n4 0 1 2 3\n",
+    );
+    let l = load_mesh(&ply, &MeshOptions::default()).unwrap();
+    assert_eq!((l.triangles_read, l.triangle_count()), (2, 2));
+    assert_eq!(
+        l.warnings,
+        vec![format!(
+            "{}:14: 1 face is not a simple polygon: 1 crossing or overlapping themselves (split as fans)",
+            ply.display()
+        )]
+    );
+}
+
+#[test]
+fn a_million_corner_polygon_loads_as_a_fan() {
+    use strahl::io::{MeshOptions, load_mesh};
+    let dir = TempDir::new("star");
+    // A star of 1,000,000 corners (alternating radii 1 and 0.5): beyond the ear-clipping bound,
+    // so a fan of n − 2 triangles (ear clipping it did not finish in 60 s).
+    let n = 1_000_000;
+    let mut text = String::with_capacity(40 * n);
+    for i in 0..n {
+        let phi = std::f64::consts::TAU * i as f64 / n as f64;
+        let r = if i % 2 == 0 { 1.0 } else { 0.5 };
+        text += &format!("v {} {} 0\n", r * phi.cos(), r * phi.sin());
+    }
+    text += "f";
+    for i in 1..=n {
+        text += &format!(" {i}");
+    }
+    text += "\n";
+    let obj = dir.write("star.obj", text);
+    let l = load_mesh(&obj, &MeshOptions::default()).unwrap();
+    assert_eq!(l.triangles_read, n - 2);
+    assert_eq!(l.triangle_count() + l.degenerate_dropped, n - 2);
+    assert_eq!(
+        l.warnings[0],
+        format!(
+            "{}:{}: 1 face is not a simple polygon: 1 with more than 10000 corners (split as fans)",
+            obj.display(),
+            n + 1
+        )
+    );
+}

@@ -4,7 +4,8 @@
 //!
 //! What every loaded mesh satisfies, whatever the format:
 //! - polygons are triangulated in their own plane (see [`super::polygon`]), keeping the file's
-//!   winding; a polygon that crosses or overlaps itself is an error;
+//!   winding; a non-planar polygon, one that crosses or overlaps itself, or a huge one is
+//!   still triangulated (best-fit plane, else a fan), with one warning per file counting them;
 //! - triangles of zero area are dropped and counted ([`LoadedMesh::degenerate_dropped`], and a
 //!   warning), never passed on;
 //! - vertices no remaining triangle uses are left out; the others keep their order;

@@ -128,6 +128,8 @@ struct Reader<'p> {
     corners: Vec<Corner>,
     corner_positions: Vec<Vec3>,
     ears: Vec<[u32; 3]>,
+    /// Faces that were not simple polygons (one warning for the file).
+    fallbacks: polygon::Fallbacks,
 }
 
 impl<'p> Reader<'p> {
@@ -152,6 +154,7 @@ impl<'p> Reader<'p> {
             corners: Vec::new(),
             corner_positions: Vec::new(),
             ears: Vec::new(),
+            fallbacks: polygon::Fallbacks::default(),
         }
     }
 
@@ -314,8 +317,8 @@ impl<'p> Reader<'p> {
             self.corner_positions.clear();
             self.corner_positions.extend(corners.iter().map(|c| self.positions[c[0] as usize]));
             self.ears.clear();
-            polygon::triangulate(&self.corner_positions, &mut self.ears)
-                .map_err(|e| MeshError::at(self.path, line_no, e.to_string()))?;
+            let how = polygon::triangulate(&self.corner_positions, &mut self.ears);
+            self.fallbacks.count(how, || format!(":{line_no}"));
             self.degenerate += n - 2 - self.ears.len();
             for t in &self.ears {
                 group.triangles.push(t.map(|k| corners[k as usize]));
@@ -328,7 +331,7 @@ impl<'p> Reader<'p> {
 
     fn finish(self, options: &MeshOptions) -> Result<LoadedMesh, MeshError> {
         let path = self.path;
-        let mut warnings = Vec::new();
+        let mut warnings: Vec<String> = self.fallbacks.warning(path).into_iter().collect();
         for (keyword, count, line) in self.skipped.iter().take(MAX_LISTED) {
             let what = match keyword.as_str() {
                 "l" => "line elements".to_string(),

@@ -388,6 +388,7 @@ pub fn parse(path: &Path, data: &[u8], options: &MeshOptions) -> Result<LoadedMe
     let mut polygons = faces.polygons.iter();
     let mut scratch = Vec::new();
     let mut corners3 = Vec::new();
+    let mut fallbacks = polygon::Fallbacks::default();
     for &size in &faces.sizes {
         let size = size as usize;
         let c = &faces.corners[start..start + size];
@@ -401,13 +402,12 @@ pub fn parse(path: &Path, data: &[u8], options: &MeshOptions) -> Result<LoadedMe
         corners3.clear();
         corners3.extend(c.iter().map(|&i| vertices.positions[i as usize]));
         scratch.clear();
-        polygon::triangulate(&corners3, &mut scratch).map_err(|e| match line {
-            0 => MeshError::invalid(path, format!("face {face}: {e}")),
-            l => MeshError::at(path, l, e.to_string()),
-        })?;
+        let how = polygon::triangulate(&corners3, &mut scratch);
+        fallbacks.count(how, || if line == 0 { format!(", face {face}") } else { format!(":{line}") });
         degenerate += size - 2 - scratch.len();
         triangles.extend(scratch.iter().map(|t| t.map(|k| c[k as usize])));
     }
+    warnings.extend(fallbacks.warning(path));
 
     let name = path.file_name().map_or_else(|| "ply".into(), |n| n.to_string_lossy().into_owned());
     let Vertices { positions, normals, uvs, colors } = vertices;

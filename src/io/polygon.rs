@@ -6,34 +6,84 @@
 //! the file's polygon does.
 //!
 //! Ear clipping a simple polygon covers exactly its area. A polygon that crosses or overlaps
-//! itself has no such triangulation; it is detected by comparing the triangles' total area with
-//! the polygon's shoelace area, and refused.
+//! itself has no such triangulation; it is detected (crossing edges, or the triangles' total
+//! area differing from the polygon's shoelace area) and never refused, as Blender, assimp and
+//! tobj load such files too:
+//! 1. a non-planar polygon whose coordinate-plane projection crosses itself is ear clipped again
+//!    in its best-fit plane (perpendicular to the Newell normal);
+//! 2. if that is not simple either (a bow tie, a pentagram, an outline traversed twice), it is
+//!    split as a fan from its first corner;
+//! 3. a polygon of more than [`EAR_CLIP_MAX`] corners is a fan at once (ear clipping a
+//!    self-intersecting outline is not bounded in time; a 1,000,000-corner star took > 60 s).
+//!
+//! Each such face is counted in [`Fallbacks`], which gives the file one warning.
 
 use crate::math::Vec3;
 
-/// Why a face could not be triangulated: its outline is not a simple polygon.
-#[derive(Clone, Debug, PartialEq)]
-pub enum PolygonError {
-    /// Edges `a` and `b` (edge i runs from corner i to corner i + 1) cross.
-    Crossing { a: usize, b: usize },
-    /// The outline winds around some of its inside more than once: ear clipping covers
-    /// `covered` where the outline's signed area says `enclosed`, or `enclosed` exceeds the
-    /// outline's bounding box (areas in the projection plane's units²).
-    Overlapping { covered: f64, enclosed: f64 },
+/// How one face was triangulated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Triangulated {
+    /// A simple polygon in its plane: ear clipping (or a convex fan) covers exactly its area.
+    Simple,
+    /// Non-planar: its coordinate-plane projection crosses itself, its best-fit plane's does not.
+    BestFitPlane,
+    /// Not simple in any plane (crossing or overlapping itself): a fan from the first corner.
+    Fan,
+    /// More than [`EAR_CLIP_MAX`] corners: a fan from the first corner, unchecked.
+    Huge,
 }
 
-impl std::fmt::Display for PolygonError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            PolygonError::Crossing { a, b } => {
-                write!(f, "face is not a simple polygon: its edges {} and {} cross", a + 1, b + 1)
-            }
-            PolygonError::Overlapping { covered, enclosed } => write!(
-                f,
-                "face is not a simple polygon: its outline overlaps itself (triangles cover {covered:.6}, \
-                 the outline's signed area is {enclosed:.6})"
-            ),
+/// Polygons of more than this many corners are split as fans without ear clipping. Ear
+/// clipping grows faster than linearly (earcutr, release, one core: a 10,000-corner star 18 ms,
+/// 10,000 random corners 0.22 s; at 100,000 corners 1.9 s and 21 s), so this bounds the work
+/// per corner.
+pub const EAR_CLIP_MAX: usize = 10_000;
+
+/// The faces of one file that were not simple polygons, for one warning.
+#[derive(Clone, Debug, Default)]
+pub struct Fallbacks {
+    pub best_fit: usize,
+    pub fan: usize,
+    pub huge: usize,
+    /// Where the first such face is, after the path: `":12"` (a line) or `", face 7"`.
+    pub first: Option<String>,
+}
+
+impl Fallbacks {
+    /// Counts one face's outcome; `place` says where it is (see [`Fallbacks::first`]).
+    pub fn count(&mut self, how: Triangulated, place: impl FnOnce() -> String) {
+        let slot = match how {
+            Triangulated::Simple => return,
+            Triangulated::BestFitPlane => &mut self.best_fit,
+            Triangulated::Fan => &mut self.fan,
+            Triangulated::Huge => &mut self.huge,
+        };
+        *slot += 1;
+        if self.first.is_none() {
+            self.first = Some(place());
         }
+    }
+
+    /// The file's one warning, if any face needed a fallback.
+    pub fn warning(&self, path: &std::path::Path) -> Option<String> {
+        let first = self.first.as_ref()?;
+        let mut parts = Vec::new();
+        if self.best_fit > 0 {
+            parts.push(format!("{} non-planar (triangulated in their best-fit plane)", self.best_fit));
+        }
+        if self.fan > 0 {
+            parts.push(format!("{} crossing or overlapping themselves (split as fans)", self.fan));
+        }
+        if self.huge > 0 {
+            parts.push(format!("{} with more than {EAR_CLIP_MAX} corners (split as fans)", self.huge));
+        }
+        let total = self.best_fit + self.fan + self.huge;
+        Some(format!(
+            "{}{first}: {total} {}: {}",
+            path.display(),
+            if total == 1 { "face is not a simple polygon" } else { "faces are not simple polygons" },
+            parts.join(", ")
+        ))
     }
 }
 
@@ -120,46 +170,35 @@ pub fn shoelace(points: &[[f64; 2]]) -> f64 {
     (0..n).map(|i| points[i][0] * points[(i + 1) % n][1] - points[(i + 1) % n][0] * points[i][1]).sum()
 }
 
-/// Triangulates the polygon `corners` (at least three), appending index triples into `corners`
-/// to `out` with the polygon's winding. Emits at most `corners.len() − 2` triangles; fewer when
-/// ear clipping removes collinear or repeated corners (the missing triangles have zero area).
-/// Triangles of zero area may be among those emitted: the caller drops and counts them.
-pub fn triangulate(corners: &[Vec3], out: &mut Vec<[u32; 3]>) -> Result<(), PolygonError> {
-    let n = corners.len();
-    debug_assert!(n >= 3);
-    if n == 3 {
-        out.push([0, 1, 2]);
-        return Ok(());
-    }
-    let mut normal = newell_normal(corners);
-    if !(normal.length_squared() > 0.0) {
-        // Zero net area: a figure eight whose lobes cancel, or all corners on one line. The
-        // largest fan triangle's normal gives a plane, if there is one.
-        let c0 = corners[0].as_dvec3();
-        normal = (1..n - 1)
-            .map(|i| (corners[i].as_dvec3() - c0).cross(corners[i + 1].as_dvec3() - c0))
-            .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
-            .unwrap_or(glam::DVec3::ZERO);
-        if !(normal.length_squared() > 0.0) {
-            // All corners on one line (or one point): every triangle has zero area.
-            out.extend((1..n as u32 - 1).map(|i| [0, i, i + 1]));
-            return Ok(());
-        }
-    }
-    let points = project(corners, normal);
-    if n == 4 && (0..4).all(|i| cross2(points[i], points[(i + 1) % 4], points[(i + 2) % 4]) > 0.0) {
-        // A convex quad, the common case: a fan is exact.
-        out.extend([[0, 1, 2], [0, 2, 3]]);
-        return Ok(());
-    }
-    if n <= CROSSING_CHECK_MAX {
-        if let Some((a, b)) = crossing(&points) {
-            return Err(PolygonError::Crossing { a, b });
-        }
+/// Projects the corners onto the plane perpendicular to `normal` (an orthonormal basis of
+/// it), keeping the orientation as [`project`] does. The best-fit plane of a non-planar polygon.
+fn project_onto_plane(corners: &[Vec3], normal: glam::DVec3) -> Vec<[f64; 2]> {
+    let n = normal.normalize();
+    // (u, v, n) right-handed: u × v = n, so counter-clockwise about `normal` stays positive.
+    let u = n.any_orthonormal_vector();
+    let v = n.cross(u);
+    let origin = corners[0].as_dvec3();
+    corners
+        .iter()
+        .map(|c| {
+            let p = c.as_dvec3() - origin;
+            [p.dot(u), p.dot(v)]
+        })
+        .collect()
+}
+
+/// Ear clips the projected outline `points`, appending triangles with its winding to `out`.
+/// `false` (and nothing appended) when the outline is not simple: edges cross, or the ears
+/// do not cover exactly the enclosed area.
+fn ear_clip(points: &[[f64; 2]], out: &mut Vec<[u32; 3]>) -> bool {
+    if points.len() <= CROSSING_CHECK_MAX && crossing(points).is_some() {
+        return false;
     }
     let flat: Vec<f64> = points.iter().flat_map(|p| *p).collect();
-    let enclosed = shoelace(&points).abs() / 2.0;
-    let ears = earcutr::earcut(&flat, &[], 2).map_err(|_| PolygonError::Overlapping { covered: f64::NAN, enclosed })?;
+    let enclosed = shoelace(points).abs() / 2.0;
+    let Ok(ears) = earcutr::earcut(&flat, &[], 2) else {
+        return false;
+    };
     let mut covered = 0.0;
     let start = out.len();
     for t in ears.chunks_exact(3) {
@@ -176,9 +215,64 @@ pub fn triangulate(corners: &[Vec3], out: &mut Vec<[u32; 3]>) -> Result<(), Poly
     let tolerance = 1e-6 * box_area + 1e-9 * covered.max(enclosed);
     if (covered - enclosed).abs() > tolerance || enclosed > box_area + tolerance {
         out.truncate(start);
-        return Err(PolygonError::Overlapping { covered, enclosed });
+        return false;
     }
-    Ok(())
+    true
+}
+
+/// The fan `(0, i, i + 1)` over all corners, appended to `out`.
+fn fan(n: usize, out: &mut Vec<[u32; 3]>) {
+    out.extend((1..n as u32 - 1).map(|i| [0, i, i + 1]));
+}
+
+/// Triangulates the polygon `corners` (at least three), appending index triples into `corners`
+/// to `out` with the polygon's winding, and says how (see the module doc: never refused).
+/// Emits at most `corners.len() − 2` triangles; fewer when ear clipping removes collinear or
+/// repeated corners (the missing triangles have zero area). Triangles of zero area may be among
+/// those emitted: the caller drops and counts them.
+pub fn triangulate(corners: &[Vec3], out: &mut Vec<[u32; 3]>) -> Triangulated {
+    let n = corners.len();
+    debug_assert!(n >= 3);
+    if n == 3 {
+        out.push([0, 1, 2]);
+        return Triangulated::Simple;
+    }
+    if n > EAR_CLIP_MAX {
+        fan(n, out);
+        return Triangulated::Huge;
+    }
+    let mut normal = newell_normal(corners);
+    if !(normal.length_squared() > 0.0) {
+        // Zero net area: a figure eight whose lobes cancel, or all corners on one line. The
+        // largest fan triangle's normal gives a plane, if there is one.
+        let c0 = corners[0].as_dvec3();
+        normal = (1..n - 1)
+            .map(|i| (corners[i].as_dvec3() - c0).cross(corners[i + 1].as_dvec3() - c0))
+            .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
+            .unwrap_or(glam::DVec3::ZERO);
+        if !(normal.length_squared() > 0.0) {
+            // All corners on one line (or one point): every triangle has zero area.
+            fan(n, out);
+            return Triangulated::Simple;
+        }
+    }
+    let points = project(corners, normal);
+    if n == 4 && (0..4).all(|i| cross2(points[i], points[(i + 1) % 4], points[(i + 2) % 4]) > 0.0) {
+        // A convex quad, the common case: a fan is exact.
+        fan(4, out);
+        return Triangulated::Simple;
+    }
+    if ear_clip(&points, out) {
+        return Triangulated::Simple;
+    }
+    // A planar polygon is simple in every projection or in none; a non-planar one may be simple
+    // in its best-fit plane when the coordinate plane folded it over itself.
+    let normal = newell_normal(corners);
+    if normal.is_finite() && normal.length_squared() > 0.0 && ear_clip(&project_onto_plane(corners, normal), out) {
+        return Triangulated::BestFitPlane;
+    }
+    fan(n, out);
+    Triangulated::Fan
 }
 
 #[cfg(test)]
@@ -194,12 +288,12 @@ mod tests {
     fn convex_quad_is_a_fan_with_the_faces_winding() {
         let c = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
         let mut out = vec![];
-        triangulate(&c, &mut out).unwrap();
+        assert_eq!(triangulate(&c, &mut out), Triangulated::Simple);
         assert_eq!(out, vec![[0, 1, 2], [0, 2, 3]]);
         // The same quad seen from below (clockwise in xy): still the face's own winding.
         let r = [c[0], c[3], c[2], c[1]];
         let mut out = vec![];
-        triangulate(&r, &mut out).unwrap();
+        triangulate(&r, &mut out);
         for t in &out {
             let [a, b, d] = t.map(|i| r[i as usize]);
             assert!((b - a).cross(d - a).z < 0.0);
@@ -214,7 +308,7 @@ mod tests {
         for q in [glam::Quat::IDENTITY, rot] {
             let c: Vec<Vec3> = l.iter().map(|&(x, y)| q * Vec3::new(x, y, 0.0)).collect();
             let mut out = vec![];
-            triangulate(&c, &mut out).unwrap();
+            assert_eq!(triangulate(&c, &mut out), Triangulated::Simple);
             assert_eq!(out.len(), 4);
             let total: f64 = out.iter().map(|&t| area3(&c, t)).sum();
             assert!((total - 3.0).abs() < 1e-5, "{total}");
@@ -227,23 +321,30 @@ mod tests {
     }
 
     #[test]
-    fn self_overlapping_outline_is_refused() {
+    fn self_crossing_outlines_become_fans() {
         // A square traversed three times (assimp's box_longline.obj does this 234 times).
         let sq = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
         for k in [2, 3, 234] {
             let c: Vec<Vec3> = sq.iter().cycle().take(4 * k).copied().collect();
-            assert!(matches!(triangulate(&c, &mut vec![]), Err(PolygonError::Overlapping { .. })), "{k}");
+            let mut out = vec![];
+            assert_eq!(triangulate(&c, &mut out), Triangulated::Fan, "{k}");
+            assert_eq!(out.len(), 4 * k - 2);
+            assert_eq!(out[1], [0, 2, 3]);
         }
-        // A bow tie, and a pentagram.
+        // A bow tie, and a pentagram: fans from corner 0 with the file's winding.
         let bow = [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::X, Vec3::Y];
-        assert_eq!(triangulate(&bow, &mut vec![]), Err(PolygonError::Crossing { a: 0, b: 2 }));
+        let mut out = vec![];
+        assert_eq!(triangulate(&bow, &mut out), Triangulated::Fan);
+        assert_eq!(out, vec![[0, 1, 2], [0, 2, 3]]);
         let star: Vec<Vec3> = (0..5)
             .map(|i| {
                 let phi = std::f32::consts::TAU * (2 * i) as f32 / 5.0;
                 Vec3::new(phi.cos(), phi.sin(), 0.0)
             })
             .collect();
-        assert!(matches!(triangulate(&star, &mut vec![]), Err(PolygonError::Crossing { .. })));
+        let mut out = vec![];
+        assert_eq!(triangulate(&star, &mut out), Triangulated::Fan);
+        assert_eq!(out, vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
         // A square with a square hole joined by a bridge traversed both ways is fine: area 3.
         let p = |x: f32, y: f32| Vec3::new(x, y, 0.0);
         let bridged = [
@@ -259,21 +360,76 @@ mod tests {
             p(0.5, 0.5),
         ];
         let mut out = vec![];
-        triangulate(&bridged, &mut out).unwrap();
+        assert_eq!(triangulate(&bridged, &mut out), Triangulated::Simple);
         let total: f64 = out.iter().map(|&t| area3(&bridged, t)).sum();
         assert!((total - 3.0).abs() < 1e-6, "{total}");
+    }
+
+    #[test]
+    fn non_planar_quad_folded_by_its_axis_projection_uses_its_best_fit_plane() {
+        // Newell normal (-4, -9, -6): projected onto zx, edges 1 and 3 cross; in the plane
+        // perpendicular to the normal the quad is convex.
+        let c = [
+            Vec3::new(-1.0, 2.0, 1.0),
+            Vec3::new(2.0, -1.0, -2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(-1.0, -1.0, 0.0),
+        ];
+        assert_eq!(newell_normal(&c), glam::DVec3::new(-4.0, -9.0, -6.0));
+        assert_eq!(crossing(&project(&c, newell_normal(&c))), Some((0, 2)));
+        let mut out = vec![];
+        assert_eq!(triangulate(&c, &mut out), Triangulated::BestFitPlane);
+        assert_eq!(out.len(), 2);
+        // Both triangles face the way the polygon's normal does.
+        let n = newell_normal(&c);
+        for &t in &out {
+            let [a, b, d] = t.map(|i| c[i as usize].as_dvec3());
+            assert!((b - a).cross(d - a).dot(n) > 0.0, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn huge_polygons_are_fans_without_ear_clipping() {
+        // A star of EAR_CLIP_MAX + 2 corners (alternating radii): n − 2 triangles, at once.
+        let n = EAR_CLIP_MAX + 2;
+        let c: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let phi = std::f32::consts::TAU * i as f32 / n as f32;
+                let r = if i % 2 == 0 { 1.0 } else { 0.5 };
+                Vec3::new(r * phi.cos(), r * phi.sin(), 0.0)
+            })
+            .collect();
+        let mut out = vec![];
+        assert_eq!(triangulate(&c, &mut out), Triangulated::Huge);
+        assert_eq!(out.len(), n - 2);
+        assert_eq!(out[n - 3], [0, n as u32 - 2, n as u32 - 1]);
+    }
+
+    #[test]
+    fn fallbacks_give_one_warning_with_counts() {
+        let mut f = Fallbacks::default();
+        assert_eq!(f.warning(std::path::Path::new("m.obj")), None);
+        f.count(Triangulated::Simple, || unreachable!());
+        f.count(Triangulated::Fan, || ":12".into());
+        f.count(Triangulated::BestFitPlane, || ":40".into());
+        f.count(Triangulated::Fan, || ":41".into());
+        assert_eq!(
+            f.warning(std::path::Path::new("m.obj")).unwrap(),
+            "m.obj:12: 3 faces are not simple polygons: 1 non-planar (triangulated in their best-fit plane), \
+             2 crossing or overlapping themselves (split as fans)"
+        );
     }
 
     #[test]
     fn collinear_corners_give_at_most_n_minus_2_triangles() {
         let line: Vec<Vec3> = (0..5).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect();
         let mut out = vec![];
-        triangulate(&line, &mut out).unwrap();
+        triangulate(&line, &mut out);
         assert_eq!(out.len(), 3);
         // A square with a corner repeated and a midpoint on an edge.
         let c = [Vec3::ZERO, Vec3::X, Vec3::X, Vec3::new(1.0, 0.5, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
         let mut out = vec![];
-        triangulate(&c, &mut out).unwrap();
+        assert_eq!(triangulate(&c, &mut out), Triangulated::Simple);
         assert!(out.len() <= 4);
         let total: f64 = out.iter().map(|&t| area3(&c, t)).sum();
         assert!((total - 1.0).abs() < 1e-6);
@@ -294,7 +450,7 @@ mod tests {
                 })
                 .collect();
             let mut out = vec![];
-            triangulate(&c, &mut out).unwrap();
+            assert_eq!(triangulate(&c, &mut out), Triangulated::Simple);
             let pts = project(&c, newell_normal(&c));
             let total: f64 = out.iter().map(|&t| area3(&c, t)).sum();
             assert!((total - shoelace(&pts).abs() / 2.0).abs() < 1e-5);
