@@ -342,6 +342,36 @@ fn repeated_libraries_and_many_unknown_statements_load_with_bounded_warnings() {
 }
 
 #[test]
+fn the_spheres_of_all_random_spheres_objects_together_are_bounded() {
+    let dir = TempDir::new("spheres");
+    // Each object within its own limit, the scene over it: refused at the count that passes it,
+    // before any of its spheres is made (25 objects of 10,000,000 took 5 GB).
+    let object = |count: u64| {
+        format!(
+            "\n[[objects]]\ntype = \"random_spheres\"\ncount = {count}\nbounds = [[-1, -1, -1], [1, 1, 1]]\n\
+             radii = [0.1, 0.2]\nmaterial = \"m\"\n"
+        )
+    };
+    let head = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\n\
+                [materials.m]\ndiffuse = [0.5, 0.5, 0.5]\n\n[[objects]]\ntype = \"sphere\"\n\
+                center = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n";
+    let scene = dir.write("many.toml", head.to_owned() + &object(4) + &object(9_999_996));
+    let e = refused_quickly(&dir, &scene);
+    assert_eq!(
+        e,
+        format!(
+            "error: {}:25:9: object 2 (random_spheres): count 9999996 would make 10000001 spheres in the scene \
+             (5 before this object), more than the 10000000 a scene may have",
+            scene.display()
+        )
+    );
+    // Counts that fit load.
+    let fits = dir.write("fits.toml", head.to_owned() + &object(4) + &object(5));
+    let r = run(&dir, &["info", fits.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+}
+
+#[test]
 fn non_planar_and_self_crossing_polygons_load_with_one_warning() {
     use strahl::io::{MeshOptions, load_mesh};
     let dir = TempDir::new("polygons");

@@ -325,7 +325,7 @@ impl ObjectFile {
                     (None, None) => return Err(at(ctx.span.clone(), "missing `material` (or `materials`)")),
                 };
                 let span = self.scale.as_ref().map_or(ctx.span.clone(), |s| s.span());
-                for (i, s) in self.random_spheres(ctx)?.iter_mut().enumerate() {
+                for (i, s) in self.random_spheres(ctx, scene.spheres.len())?.iter_mut().enumerate() {
                     s.material = materials[i % materials.len()];
                     scene.spheres.push(transform.apply_to_sphere(s).map_err(|m| at(span.clone(), m))?);
                 }
@@ -468,11 +468,23 @@ impl ObjectFile {
         Ok(mesh)
     }
 
-    fn random_spheres(&self, ctx: &ObjectContext) -> Result<Vec<Sphere>, Problem> {
+    /// The spheres of a `random_spheres` object, in a scene that has `existing` spheres already
+    /// (the total is bounded by [`MAX_RANDOM_SPHERES`], checked before any is made).
+    fn random_spheres(&self, ctx: &ObjectContext, existing: usize) -> Result<Vec<Sphere>, Problem> {
         let count_value = required(&self.count, "count", &ctx.span)?;
         let count = *count_value.get_ref();
         if count > MAX_RANDOM_SPHERES {
             return Err(at(count_value.span(), format!("count {count} is more than {MAX_RANDOM_SPHERES}")));
+        }
+        let total = count + existing as u64;
+        if total > MAX_RANDOM_SPHERES {
+            return Err(at(
+                count_value.span(),
+                format!(
+                    "count {count} would make {total} spheres in the scene ({existing} before this object), \
+                     more than the {MAX_RANDOM_SPHERES} a scene may have"
+                ),
+            ));
         }
         let seed = self.seed.as_ref().map_or(0, |s| *s.get_ref());
         let bounds_value = required(&self.bounds, "bounds", &ctx.span)?;
