@@ -372,6 +372,26 @@ fn the_spheres_of_all_random_spheres_objects_together_are_bounded() {
 }
 
 #[test]
+fn a_scene_over_the_size_limit_is_refused_before_it_is_parsed() {
+    let dir = TempDir::new("big_scene");
+    // 32 MiB + 1 byte of comment: refused before the TOML parse, whose memory grows about 40×
+    // the inline geometry (a 200 MB `triangles` object took 6.3 GB).
+    let limit = 32usize << 20;
+    let mut text = "# padding\n".repeat(limit / 10 + 1).into_bytes();
+    text.truncate(limit + 1);
+    let scene = dir.write("big.toml", &text);
+    let e = refused_quickly(&dir, &scene);
+    assert_eq!(
+        e,
+        format!(
+            "error: {}: cannot read the scene: 33554433 bytes is more than the limit of 33554432 bytes; put large \
+             geometry in a file of its own (an OBJ or PLY `mesh` object, a `gltf` object)",
+            scene.display()
+        )
+    );
+}
+
+#[test]
 fn non_planar_and_self_crossing_polygons_load_with_one_warning() {
     use strahl::io::{MeshOptions, load_mesh};
     let dir = TempDir::new("polygons");

@@ -74,8 +74,8 @@ pub struct Loaded {
 /// [`MAX_SCENE_BYTES`] is read.
 pub fn load(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
-    let bytes =
-        read_regular(path, MAX_SCENE_BYTES, "").map_err(|problem| SceneError::Read { path: path.into(), problem })?;
+    let bytes = read_regular(path, MAX_SCENE_BYTES, crate::io::read::SCENE_TOO_LARGE_HINT)
+        .map_err(|problem| SceneError::Read { path: path.into(), problem })?;
     let text = String::from_utf8(bytes).map_err(|e| {
         let offset = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();
