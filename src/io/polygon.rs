@@ -199,6 +199,11 @@ fn ear_clip(points: &[[f64; 2]], out: &mut Vec<[u32; 3]>) -> bool {
     let Ok(ears) = earcutr::earcut(&flat, &[], 2) else {
         return false;
     };
+    if ears.len() / 3 > points.len() - 2 {
+        // More triangles than a simple polygon has: not simple (never seen, but callers count
+        // `n − 2 − emitted` dropped triangles).
+        return false;
+    }
     let mut covered = 0.0;
     let start = out.len();
     for t in ears.chunks_exact(3) {
