@@ -4,7 +4,6 @@
 
 mod common;
 
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::TempDir;
@@ -13,45 +12,24 @@ fn scene() -> String {
     format!("{}/scenes/spheres.toml", env!("CARGO_MANIFEST_DIR"))
 }
 
-/// Starts a render that pauses 60 s after creating its temporary file, waits for that file,
-/// sends `signal` and returns the exit code and the folder's entries.
-fn interrupted(tag: &str, signal: &str) -> (Option<i32>, Vec<String>, Vec<u8>) {
-    let dir = TempDir::new(tag);
-    let out = dir.write("out.exr", b"the previous output");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_strahl"))
-        .args(["render", &scene(), "--width", "32", "--height", "24", "-o"])
-        .arg(&out)
-        .env("STRAHL_TEST_WRITE_DELAY_MS", "60000")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while !dir.entries().iter().any(|e| e.starts_with(".strahl-") && e.ends_with(".tmp")) {
-        assert!(start.elapsed() < Duration::from_secs(120), "no temporary file appeared: {:?}", dir.entries());
-        std::thread::sleep(Duration::from_millis(20));
+#[test]
+fn sigterm_and_sigint_during_the_write_leave_no_temporary_file_and_the_old_output() {
+    for (signal, code) in [("-TERM", 143), ("-INT", 130)] {
+        // A render that pauses 60 s after creating its temporary file, interrupted then.
+        let dir = TempDir::new(&format!("signal{signal}"));
+        let out = dir.write("out.exr", b"the previous output");
+        let args = ["render", &scene(), "--width", "32", "--height", "24", "-o", out.to_str().unwrap()];
+        let mut child = common::spawn_strahl(args, ("STRAHL_TEST_WRITE_DELAY_MS", "60000"));
+        let start = Instant::now();
+        while !dir.entries().iter().any(|e| e.starts_with(".strahl-") && e.ends_with(".tmp")) {
+            assert!(start.elapsed() < Duration::from_secs(120), "no temporary file appeared: {:?}", dir.entries());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        common::send_signal(&child, signal);
+        assert_eq!(child.wait().unwrap().code(), Some(code), "{signal}");
+        assert_eq!(dir.entries(), ["out.exr"], "{signal}");
+        assert_eq!(std::fs::read(&out).unwrap(), b"the previous output", "{signal}");
     }
-    // The shell's built-in kill: a minimal root (the Embree 4 run) may have no /bin/kill.
-    let killed = Command::new("sh").args(["-c", &format!("kill {signal} {}", child.id())]).status().unwrap();
-    assert!(killed.success());
-    let status = child.wait().unwrap();
-    (status.code(), dir.entries(), std::fs::read(&out).unwrap())
-}
-
-#[test]
-fn sigterm_during_the_write_leaves_no_temporary_file_and_the_old_output() {
-    let (code, entries, bytes) = interrupted("sigterm", "-TERM");
-    assert_eq!(code, Some(143));
-    assert_eq!(entries, ["out.exr"]);
-    assert_eq!(bytes, b"the previous output");
-}
-
-#[test]
-fn sigint_during_the_write_leaves_no_temporary_file_and_the_old_output() {
-    let (code, entries, bytes) = interrupted("sigint", "-INT");
-    assert_eq!(code, Some(130));
-    assert_eq!(entries, ["out.exr"]);
-    assert_eq!(bytes, b"the previous output");
 }
 
 #[test]

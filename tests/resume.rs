@@ -91,8 +91,7 @@ fn sigterm_saves_a_checkpoint_and_resume_gives_the_same_bytes() {
         let out = dir.path(&format!("term{k}.exr"));
         let child = spawn_slow(&out, 40);
         wait_for_tiles(&checkpoint_of(&out), k);
-        let status = Command::new("sh").args(["-c", &format!("kill -TERM {}", child.id())]).status().unwrap();
-        assert!(status.success());
+        common::send_signal(&child, "-TERM");
         let done = child.wait_with_output().unwrap();
         let stderr = text(&done.stderr);
         assert_eq!(done.status.code(), Some(1), "{stderr}");
@@ -141,7 +140,7 @@ fn sigkill_while_a_checkpoint_is_written_then_resume_gives_the_same_bytes() {
     let ckpt = checkpoint_of(&out);
     if ckpt.exists() {
         let bytes = std::fs::read(&ckpt).unwrap();
-        std::fs::write(dir.path(".o.exr.checkpoint.999999.0.tmp"), &bytes[..bytes.len() / 2]).unwrap();
+        std::fs::write(dir.path(".strahl-999999-0.tmp"), &bytes[..bytes.len() / 2]).unwrap();
     }
     assert!(resume(&out) == want, "resumed after a kill during a checkpoint write: bytes differ");
 }
@@ -150,15 +149,9 @@ fn sigkill_while_a_checkpoint_is_written_then_resume_gives_the_same_bytes() {
 fn interrupted(out: &Path, extra: &[&str]) {
     let mut a = args(out, &["--threads", "1", "--checkpoint-every", "0"]);
     a.extend(extra.iter().map(|s| s.to_string()));
-    let child = Command::new(env!("CARGO_BIN_EXE_strahl"))
-        .args(&a)
-        .env("STRAHL_TEST_TILE_DELAY_MS", "30")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let child = common::spawn_strahl(&a, ("STRAHL_TEST_TILE_DELAY_MS", "30"));
     wait_for_tiles(&checkpoint_of(out), 3);
-    Command::new("sh").args(["-c", &format!("kill -TERM {}", child.id())]).status().unwrap();
+    common::send_signal(&child, "-TERM");
     child.wait_with_output().unwrap();
     assert!(checkpoint_of(out).exists());
 }

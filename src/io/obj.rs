@@ -42,12 +42,12 @@
 //! the faces that use its materials get a default material, as do faces before any `usemtl`
 //! and faces whose `usemtl` names a material no library defines.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::mesh::{LoadedMesh, MeshError, MeshOptions, Parsed, RawMesh, finish};
 use super::polygon;
-use super::text::{self, parse_f32, parse_i64, show};
+use super::text::{self, Tally, parse_f32, parse_i64, show};
 use crate::material::{Material, Texture};
 use crate::math::{Vec2, Vec3};
 
@@ -121,10 +121,8 @@ struct Reader<'p> {
     attributes: bool,
     triangles_read: usize,
     degenerate: usize,
-    /// Statements skipped, by keyword: (count, first line), in first-seen order, and each
-    /// keyword's place in that list (a hash, so that many distinct keywords stay linear).
-    skipped: Vec<(String, usize, usize)>,
-    skipped_index: HashMap<String, usize>,
+    /// Statements skipped, by keyword.
+    skipped: Tally,
     corners: Vec<Corner>,
     corner_positions: Vec<Vec3>,
     ears: Vec<[u32; 3]>,
@@ -149,8 +147,7 @@ impl<'p> Reader<'p> {
             attributes: false,
             triangles_read: 0,
             degenerate: 0,
-            skipped: Vec::new(),
-            skipped_index: HashMap::new(),
+            skipped: Tally::default(),
             corners: Vec::new(),
             corner_positions: Vec::new(),
             ears: Vec::new(),
@@ -247,14 +244,7 @@ impl<'p> Reader<'p> {
     }
 
     fn skip(&mut self, keyword: &[u8], line_no: usize) {
-        let keyword = show(keyword);
-        match self.skipped_index.get(&keyword) {
-            Some(&i) => self.skipped[i].1 += 1,
-            None => {
-                self.skipped_index.insert(keyword.clone(), self.skipped.len());
-                self.skipped.push((keyword, 1, line_no));
-            }
-        }
+        self.skipped.add(show(keyword), line_no);
     }
 
     /// Resolves a 1-based (or negative, relative) OBJ index against `len` items.
@@ -332,7 +322,8 @@ impl<'p> Reader<'p> {
     fn finish(self, options: &MeshOptions) -> Result<LoadedMesh, MeshError> {
         let path = self.path;
         let mut warnings: Vec<String> = self.fallbacks.warning(path).into_iter().collect();
-        for (keyword, count, line) in self.skipped.iter().take(MAX_LISTED) {
+        let skipped = self.skipped.entries();
+        for (keyword, count, line) in skipped.iter().take(MAX_LISTED) {
             let what = match keyword.as_str() {
                 "l" => "line elements".to_string(),
                 "p" => "point elements".to_string(),
@@ -342,8 +333,8 @@ impl<'p> Reader<'p> {
             };
             warnings.push(format!("{}:{line}: skipped {count} {what}", path.display()));
         }
-        if let Some((_, _, line)) = self.skipped.get(MAX_LISTED) {
-            let rest = &self.skipped[MAX_LISTED..];
+        if let Some((_, _, line)) = skipped.get(MAX_LISTED) {
+            let rest = &skipped[MAX_LISTED..];
             let count: usize = rest.iter().map(|(_, c, _)| c).sum();
             warnings.push(format!(
                 "{}:{line}: skipped {count} more statements of {} other unknown keywords",
@@ -590,8 +581,7 @@ impl MtlBlock {
 pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result<Vec<Material>, MeshError> {
     let data = data.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(data);
     let mut blocks: Vec<MtlBlock> = Vec::new();
-    let mut ignored: Vec<(String, usize)> = Vec::new();
-    let mut ignored_seen: HashSet<String> = HashSet::new();
+    let mut ignored = Tally::default();
     for (line_no, line) in text::lines(data) {
         let line = match line.iter().position(|&b| b == b'#') {
             Some(i) => &line[..i],
@@ -610,10 +600,7 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
             continue;
         }
         let Some(block) = blocks.last_mut() else {
-            let what = format!("{} before any newmtl", show(keyword));
-            if ignored_seen.insert(what.clone()) {
-                ignored.push((what, line_no));
-            }
+            ignored.add(format!("{} before any newmtl", show(keyword)), line_no);
             continue;
         };
         let color = |words: &mut dyn Iterator<Item = &[u8]>| -> Result<Option<Vec3>, MeshError> {
@@ -640,7 +627,7 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
                 if ni > 0.0 {
                     block.ni = Some(ni);
                 } else {
-                    ignored.push((format!("Ni {ni} (not an index of refraction)"), line_no));
+                    ignored.add(format!("Ni {ni} (not an index of refraction)"), line_no);
                 }
             }
             b"d" => {
@@ -672,22 +659,16 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
                     ));
                 }
             }
-            other => {
-                let other = show(other);
-                if ignored_seen.insert(other.clone()) {
-                    ignored.push((other, line_no));
-                }
-            }
+            other => ignored.add(show(other), line_no),
         }
     }
-    if !ignored.is_empty() {
-        let mut list: Vec<&str> = ignored.iter().take(MAX_LISTED).map(|(k, _)| k.as_str()).collect();
-        let more = ignored.len().saturating_sub(MAX_LISTED);
-        let more = format!("and {more} more");
-        if ignored.len() > MAX_LISTED {
-            list.push(&more);
+    let all = ignored.entries();
+    if let Some((_, _, first_line)) = all.first() {
+        let mut list: Vec<String> = all.iter().take(MAX_LISTED).map(|(k, ..)| k.clone()).collect();
+        if all.len() > MAX_LISTED {
+            list.push(format!("and {} more", all.len() - MAX_LISTED));
         }
-        warnings.push(format!("{}:{}: ignored (not supported): {}", path.display(), ignored[0].1, list.join(", ")));
+        warnings.push(format!("{}:{first_line}: ignored (not supported): {}", path.display(), list.join(", ")));
     }
     Ok(blocks.iter().map(MtlBlock::material).collect())
 }

@@ -1,6 +1,7 @@
 //! Lines, tokens and numbers of the text mesh formats (OBJ, MTL, ASCII PLY), read straight from
 //! bytes: no UTF-8 validation of whole lines, no allocation per token, and a correctly rounded
-//! `f32` parser whose fast path covers the short decimals mesh files are made of.
+//! `f32` parser whose fast path covers the short decimals mesh files are made of; and the
+//! tally of statements a parser skips.
 
 /// The lines of `data` with their 1-based numbers, without the `\n` or `\r\n` that ends them.
 /// A final line without a newline is still a line.
@@ -190,5 +191,33 @@ mod tests {
         let v: Vec<_> = lines(b"a\r\nb\n\nc").collect();
         assert_eq!(v, vec![(1, &b"a"[..]), (2, &b"b"[..]), (3, &b""[..]), (4, &b"c"[..])]);
         assert_eq!(tokens(b" \tf  1\t2 3 ").collect::<Vec<_>>(), vec![&b"f"[..], b"1", b"2", b"3"]);
+    }
+}
+
+/// Statements a parser skips, by keyword: each keyword once, in first-seen order, with how
+/// often it occurred and the line it first did. A hash finds a keyword again, so a file of
+/// many distinct unknown statements stays linear.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Tally {
+    /// (keyword, count, first line)
+    entries: Vec<(String, usize, usize)>,
+    index: std::collections::HashMap<String, usize>,
+}
+
+impl Tally {
+    /// Counts one occurrence of `keyword` on line `line`.
+    pub(crate) fn add(&mut self, keyword: String, line: usize) {
+        match self.index.get(&keyword) {
+            Some(&i) => self.entries[i].1 += 1,
+            None => {
+                self.index.insert(keyword.clone(), self.entries.len());
+                self.entries.push((keyword, 1, line));
+            }
+        }
+    }
+
+    /// (keyword, count, first line), in first-seen order.
+    pub(crate) fn entries(&self) -> &[(String, usize, usize)] {
+        &self.entries
     }
 }

@@ -5,8 +5,9 @@
 
 #![allow(dead_code)] // each test file uses a different subset
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 
 use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
 use glam::DVec3;
@@ -188,6 +189,25 @@ pub fn strahl(args: &[&str]) -> Output {
         .env("SOURCE_DATE_EPOCH", "1700000000")
         .output()
         .expect("strahl runs")
+}
+
+/// Starts `strahl args` in the background with the test hook `env` set (`STRAHL_TEST_…`, a
+/// delay that leaves time to interrupt it), its output discarded.
+pub fn spawn_strahl<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>, env: (&str, &str)) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(args)
+        .env(env.0, env.1)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("strahl starts")
+}
+
+/// Sends `signal` (`-TERM`, `-INT`) to `child` with the shell's built-in kill: a minimal root
+/// (the Embree 4 run's) may have no /bin/kill.
+pub fn send_signal(child: &Child, signal: &str) {
+    let sent = Command::new("sh").args(["-c", &format!("kill {signal} {}", child.id())]).status().unwrap();
+    assert!(sent.success(), "kill {signal} failed");
 }
 
 pub fn text(bytes: &[u8]) -> String {
