@@ -16,7 +16,13 @@
 //!
 //! with `E = I/d²` for a point light of intensity `I` at distance `d` and `E` itself for a
 //! directional light, `cosθ` between the shading normal and the direction to the light, and
-//! `V` the shadow ray's verdict. A dielectric (`transmission = k_t ≠ 0`) adds `k_t·R` to the
+//! `V` the shadow ray's verdict. An area light adds `light_samples` such terms, each with a
+//! point sampled on the light and `E = L·cosθ_l/(d²·pdf_A)/light_samples`
+//! ([`crate::light::area`]): the same shadow ray and BRDF, so its light lands in the direct
+//! diffuse and specular passes. The light points are stratified across the pixel's samples
+//! ([`SampleDims`]). Emitters are ordinary objects to every ray (their `L_e` is what camera,
+//! mirror and glass rays see, from the front only when one-sided); a shadow ray ends just
+//! short of its light sample, so a light does not shadow itself. A dielectric (`transmission = k_t ≠ 0`) adds `k_t·R` to the
 //! mirror weight `k_r` and refracts `k_t·T`, `R` from the exact unpolarised Fresnel equations
 //! and `T = 1 − R` ([`crate::optics`]); beyond the critical angle `R = 1` (total internal
 //! reflection). A ray entering or leaving a dielectric is told apart by the geometric normal:
@@ -70,11 +76,12 @@ use crate::camera::Camera;
 use crate::cryptomatte;
 use crate::film::Film;
 use crate::ids::ObjectIds;
+use crate::light::Incidence;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::optics;
 use crate::passes::{LIGHT_PASSES, Pass};
 use crate::region::Region;
-use crate::sampler::PixelSampler;
+use crate::sampler::{PixelSampler, SampleDims, strata};
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
 
@@ -235,6 +242,11 @@ pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
     for (i, l) in scene.lights.iter().enumerate() {
         if let Some(problem) = l.problem() {
             return bad(format!("light {i}"), problem);
+        }
+    }
+    for (i, l) in scene.area_lights.iter().enumerate() {
+        if let Some(problem) = l.problem() {
+            return bad(format!("area light {i}"), problem);
         }
     }
     let n = scene.materials.len();
@@ -438,13 +450,25 @@ impl<A: Accel> Whitted<'_, A> {
         let passes = self.scene.output.passes;
         let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
         let pixels = tile.pixels_in_packet_order();
+        let spp = self.scene.image.spp;
         let mut samplers: Vec<PixelSampler> =
-            pixels.iter().map(|&(x, y)| PixelSampler::new(self.scene.image.spp, y as u64 * width + x as u64)).collect();
+            pixels.iter().map(|&(x, y)| PixelSampler::new(spp, y as u64 * width + x as u64)).collect();
+        let lights = !self.scene.area_lights.is_empty();
+        let mut dims: Vec<SampleDims> = pixels
+            .iter()
+            .map(|&(x, y)| {
+                if lights {
+                    SampleDims::new(spp, y as u64 * width + x as u64, lights, false)
+                } else {
+                    SampleDims::unused()
+                }
+            })
+            .collect();
         let mut accumulators = vec![PixelAccumulator::default(); pixels.len()];
         let mut counts = RayCounts::default();
         let mut rays = Vec::with_capacity(pixels.len());
         let mut hits = vec![None; pixels.len()];
-        for _sample in 0..self.scene.image.spp {
+        for sample in 0..spp {
             // 1. Ray generation.
             rays.clear();
             rays.extend(pixels.iter().zip(&mut samplers).map(|(&(x, y), s)| self.camera.ray(x, y, s.next_offset())));
@@ -452,8 +476,9 @@ impl<A: Accel> Whitted<'_, A> {
             // 2. Intersection, as packets.
             self.accel.intersect_batch(&rays, &mut hits)?;
             // 3. Shading.
-            for ((ray, hit), acc) in rays.iter().zip(&hits).zip(&mut accumulators) {
-                let (radiance, split, first) = self.shade_primary_split(ray, hit.as_ref(), &mut counts)?;
+            for (((ray, hit), acc), d) in rays.iter().zip(&hits).zip(&mut accumulators).zip(&mut dims) {
+                d.begin(sample);
+                let (radiance, split, first) = self.shade_primary_split(ray, hit.as_ref(), d, &mut counts)?;
                 let object = first.filter(|_| crypto).map(|f| ids.object_of(self.scene, &f.hit));
                 acc.add(radiance, &split, first, object);
             }
@@ -467,14 +492,15 @@ impl<A: Accel> Whitted<'_, A> {
     }
 
     /// The radiance along a primary ray whose closest hit is `hit`, and what the AOVs record
-    /// of that hit.
+    /// of that hit. `dims` gives the light samples (of the pixel sample being traced).
     pub fn shade_primary(
         &self,
         ray: &Ray,
         hit: Option<&Hit>,
+        dims: &mut SampleDims,
         counts: &mut RayCounts,
     ) -> Result<(Vec3, Option<FirstHit>), TraceError> {
-        let (radiance, _, first) = self.shade_primary_split(ray, hit, counts)?;
+        let (radiance, _, first) = self.shade_primary_split(ray, hit, dims, counts)?;
         Ok((radiance, first))
     }
 
@@ -483,6 +509,7 @@ impl<A: Accel> Whitted<'_, A> {
         &self,
         ray: &Ray,
         hit: Option<&Hit>,
+        dims: &mut SampleDims,
         counts: &mut RayCounts,
     ) -> Result<(Vec3, Radiance, Option<FirstHit>), TraceError> {
         let Some(hit) = hit else {
@@ -492,18 +519,25 @@ impl<A: Accel> Whitted<'_, A> {
         let sp = SurfacePoint::new(self.scene, ray, hit);
         let first = FirstHit { t: hit.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit };
         let mut split = Radiance::default();
-        let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, counts, Some(&mut split))?;
+        let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, dims, counts, Some(&mut split))?;
         Ok((radiance, split, Some(first)))
     }
 
     /// Steps 2 and 3 for a secondary ray at recursion depth `depth` whose path so far weighs
     /// `throughput`: the radiance arriving along it.
-    pub fn trace(&self, ray: &Ray, depth: u32, throughput: Vec3, counts: &mut RayCounts) -> Result<Vec3, TraceError> {
+    pub fn trace(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        throughput: Vec3,
+        dims: &mut SampleDims,
+        counts: &mut RayCounts,
+    ) -> Result<Vec3, TraceError> {
         match self.accel.intersect(ray)? {
             None => Ok(self.background()),
             Some(hit) => {
                 let sp = SurfacePoint::new(self.scene, ray, &hit);
-                self.shade(ray, &sp, depth, throughput, counts)
+                self.shade(ray, &sp, depth, throughput, dims, counts)
             }
         }
     }
@@ -516,9 +550,10 @@ impl<A: Accel> Whitted<'_, A> {
         sp: &SurfacePoint,
         depth: u32,
         throughput: Vec3,
+        dims: &mut SampleDims,
         counts: &mut RayCounts,
     ) -> Result<Vec3, TraceError> {
-        self.shade_split(ray, sp, depth, throughput, counts, None)
+        self.shade_split(ray, sp, depth, throughput, dims, counts, None)
     }
 
     /// [`Whitted::shade`], also adding each term to `split` when given. The returned radiance
@@ -529,6 +564,7 @@ impl<A: Accel> Whitted<'_, A> {
         sp: &SurfacePoint,
         depth: u32,
         throughput: Vec3,
+        dims: &mut SampleDims,
         counts: &mut RayCounts,
         mut split: Option<&mut Radiance>,
     ) -> Result<Vec3, TraceError> {
@@ -536,20 +572,22 @@ impl<A: Accel> Whitted<'_, A> {
         let m = &scene.materials[sp.material as usize];
         let wo = -ray.dir;
 
-        // Emission and ambient: a diffuse surface under uniform radiance L_a reflects ρ·L_a.
-        let mut l = m.emission + sp.albedo * scene.image.ambient;
+        // Emission (from the front only, for a one-sided emitter) and ambient: a diffuse
+        // surface under uniform radiance L_a reflects ρ·L_a.
+        let emission = if m.emission_one_sided && !sp.front_face { Vec3::ZERO } else { m.emission };
+        let mut l = emission + sp.albedo * scene.image.ambient;
         if let Some(split) = split.as_deref_mut() {
             split.emission = l;
         }
 
-        // Direct light, one shadow ray per light.
+        // Direct light: one shadow ray per point or directional light, `light_samples` per
+        // area light (each sample's incidence carries 1/light_samples of the estimate).
         if sp.albedo != Vec3::ZERO || m.specular != Vec3::ZERO {
             let origin = offset_ray_origin(sp.p, sp.ng);
-            for light in &scene.lights {
-                let Some(inc) = light.incidence(sp.p) else { continue };
+            let mut direct = |inc: Incidence, counts: &mut RayCounts| -> Result<(), TraceError> {
                 let cos = sp.ns.dot(inc.to_light);
                 if cos <= 0.0 || sp.ng.dot(inc.to_light) <= 0.0 {
-                    continue; // behind the surface: self-shadowed without a ray
+                    return Ok(()); // behind the surface: self-shadowed without a ray
                 }
                 let shadow = if inc.distance.is_finite() {
                     let to = (sp.p + inc.distance * inc.to_light) - origin;
@@ -560,7 +598,7 @@ impl<A: Accel> Whitted<'_, A> {
                 };
                 counts.shadow += 1;
                 if self.accel.occluded(&shadow)? {
-                    continue;
+                    return Ok(());
                 }
                 let lambert = optics::lambert(sp.albedo);
                 let mut brdf = lambert;
@@ -574,6 +612,20 @@ impl<A: Accel> Whitted<'_, A> {
                 if let Some(split) = split.as_deref_mut() {
                     split.diffuse += lambert * inc.normal_irradiance * cos;
                     split.specular += highlight * inc.normal_irradiance * cos;
+                }
+                Ok(())
+            };
+            for light in &scene.lights {
+                if let Some(inc) = light.incidence(sp.p) {
+                    direct(inc, counts)?;
+                }
+            }
+            for light in &scene.area_lights {
+                let grid = strata(light.samples);
+                for j in 0..light.samples {
+                    if let Some(inc) = light.sample(sp.p, dims.light(j, grid)) {
+                        direct(inc, counts)?;
+                    }
                 }
             }
         }
@@ -608,7 +660,8 @@ impl<A: Accel> Whitted<'_, A> {
             }
             let reflected = Ray::new(offset_ray_origin(sp.p, sp.ng), dir.normalize());
             counts.reflected += 1;
-            let reflection = reflect_weight * self.trace(&reflected, depth + 1, throughput * reflect_weight, counts)?;
+            let reflection =
+                reflect_weight * self.trace(&reflected, depth + 1, throughput * reflect_weight, dims, counts)?;
             l += reflection;
             if let Some(split) = split.as_deref_mut() {
                 split.reflection = reflection;
@@ -619,7 +672,7 @@ impl<A: Accel> Whitted<'_, A> {
         if let Some((dir, weight)) = refract.filter(|(_, w)| (throughput * *w).max_element() >= THROUGHPUT_CUTOFF) {
             let refracted = Ray::new(offset_ray_origin(sp.p, -sp.ng), dir);
             counts.refracted += 1;
-            let transmission = weight * self.trace(&refracted, depth + 1, throughput * weight, counts)?;
+            let transmission = weight * self.trace(&refracted, depth + 1, throughput * weight, dims, counts)?;
             l += transmission;
             if let Some(split) = split {
                 split.transmission = transmission;

@@ -86,6 +86,9 @@ pub struct Material {
     pub ior: f32,
     /// Emitted radiance.
     pub emission: Vec3,
+    /// Whether only the front (the side the geometric normal points to) emits; both do
+    /// otherwise. The geometry of a one-sided area light has it.
+    pub emission_one_sided: bool,
 }
 
 impl Default for Material {
@@ -100,6 +103,7 @@ impl Default for Material {
             transmission: Vec3::ZERO,
             ior: 1.5,
             emission: Vec3::ZERO,
+            emission_one_sided: false,
         }
     }
 }

@@ -7,7 +7,7 @@ use strahl::Accel;
 use strahl::camera::Camera;
 use strahl::integrator::{self, RayCounts, Whitted};
 use strahl::math::Vec3;
-use strahl::sampler;
+use strahl::sampler::{self, SampleDims};
 use strahl::scene::procedural::whitted_showcase;
 
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -69,7 +69,8 @@ fn one_sample_per_pixel_is_exactly_the_pixel_centre_ray() {
             assert_eq!(sampler::offsets(1, (y * 24 + x) as u64), vec![strahl::Vec2::splat(0.5)]);
             let ray = camera.centre_ray(x, y);
             let hit = accel.intersect(&ray).unwrap();
-            let (rgb, first) = whitted.shade_primary(&ray, hit.as_ref(), &mut by_hand).unwrap();
+            let (rgb, first) =
+                whitted.shade_primary(&ray, hit.as_ref(), &mut SampleDims::unused(), &mut by_hand).unwrap();
             let i = film.index(x, y);
             // An opaque frame: alpha 1 everywhere, the sky in RGB.
             assert_eq!(film.rgba[i], [rgb.x, rgb.y, rgb.z, 1.0], "pixel ({x}, {y})");
@@ -113,7 +114,7 @@ fn four_samples_are_four_distinct_stratified_positions_averaged() {
                 let ray = camera.ray(x, y, *o);
                 let hit = accel.intersect(&ray).unwrap();
                 hits += hit.is_some() as u32;
-                sum += whitted.shade_primary(&ray, hit.as_ref(), &mut counts).unwrap().0;
+                sum += whitted.shade_primary(&ray, hit.as_ref(), &mut SampleDims::unused(), &mut counts).unwrap().0;
             }
             let mean = sum / 4.0;
             let i = film.index(x, y);

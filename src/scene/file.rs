@@ -25,6 +25,7 @@ use objects::{ObjectContext, ObjectFile};
 use super::{CameraSpec, ImageSpec, Scene};
 use crate::io::read::{MAX_SCENE_BYTES, ReadError, read_regular};
 use crate::light::Light;
+use crate::light::area::{AreaLight, Shape};
 use crate::material::{Material, Texture};
 use crate::math::Vec3;
 use crate::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
@@ -321,6 +322,9 @@ struct CheckerFile {
 enum LightKind {
     Point,
     Directional,
+    Quad,
+    Disk,
+    Sphere,
 }
 
 #[derive(Deserialize)]
@@ -332,6 +336,21 @@ struct LightFile {
     intensity: Option<Spanned<Triple>>,
     direction: Option<Spanned<V3>>,
     irradiance: Option<Spanned<Triple>>,
+    corner: Option<Spanned<V3>>,
+    edge1: Option<Spanned<V3>>,
+    edge2: Option<Spanned<V3>>,
+    center: Option<Spanned<V3>>,
+    normal: Option<Spanned<V3>>,
+    radius: Option<Spanned<f64>>,
+    radiance: Option<Spanned<Triple>>,
+    two_sided: Option<Spanned<bool>>,
+    light_samples: Option<Spanned<u32>>,
+}
+
+/// A light of the scene file: a delta light or one with a shape.
+enum AnyLight {
+    Delta(Light),
+    Area(AreaLight),
 }
 
 /// A colour or per-axis factor: one number for all three channels, or `[r, g, b]`.
@@ -463,8 +482,10 @@ impl SceneFile {
             material_ids.insert(name.as_str(), i as u32);
         }
         for (i, light) in self.lights.iter().enumerate() {
-            let l = light.get_ref().to_light(&light.span()).map_err(|p| prefix(p, &format!("light {i}")))?;
-            scene.lights.push(l);
+            match light.get_ref().to_light(&light.span()).map_err(|p| prefix(p, &format!("light {i}")))? {
+                AnyLight::Delta(l) => scene.lights.push(l),
+                AnyLight::Area(l) => scene.area_lights.push(l),
+            }
         }
         let (mut warnings, mut objects) = (Vec::new(), Vec::new());
         let instanced = self.objects.iter().filter_map(|o| o.get_ref().instance_of()).collect();
@@ -483,6 +504,7 @@ impl SceneFile {
             warnings.extend(object_warnings.into_iter().map(|w| prefix(w, &o.label(i))));
             objects.push(summary);
         }
+        super::emitters::add_emitters(&mut scene);
         Ok((scene, warnings, objects))
     }
 }
@@ -578,39 +600,90 @@ impl MaterialFile {
             transmission: optional_color(&self.transmission, "transmission", Some(1.0))?,
             ior: ior as f32,
             emission: optional_color(&self.emission, "emission", None)?,
+            emission_one_sided: false,
         })
     }
 }
 
 impl LightFile {
-    fn to_light(&self, span: &Range<usize>) -> Result<Light, Problem> {
+    fn to_light(&self, span: &Range<usize>) -> Result<AnyLight, Problem> {
         let kind = *self.kind.get_ref();
-        let span_of = |v: &Option<Spanned<V3>>| v.as_ref().map(|v| v.span());
-        let span_of_color = |v: &Option<Spanned<Triple>>| v.as_ref().map(|v| v.span());
-        let (name, takes, foreign) = match kind {
-            LightKind::Point => (
-                "point",
-                "position, intensity",
-                [("direction", span_of(&self.direction)), ("irradiance", span_of_color(&self.irradiance))],
-            ),
-            LightKind::Directional => (
-                "directional",
-                "direction, irradiance",
-                [("position", span_of(&self.position)), ("intensity", span_of_color(&self.intensity))],
-            ),
+        let v = |v: &Option<Spanned<V3>>| v.as_ref().map(|v| v.span());
+        let c = |v: &Option<Spanned<Triple>>| v.as_ref().map(|v| v.span());
+        let keys = [
+            ("position", v(&self.position)),
+            ("intensity", c(&self.intensity)),
+            ("direction", v(&self.direction)),
+            ("irradiance", c(&self.irradiance)),
+            ("corner", v(&self.corner)),
+            ("edge1", v(&self.edge1)),
+            ("edge2", v(&self.edge2)),
+            ("center", v(&self.center)),
+            ("normal", v(&self.normal)),
+            ("radius", self.radius.as_ref().map(|r| r.span())),
+            ("radiance", c(&self.radiance)),
+            ("two_sided", self.two_sided.as_ref().map(|r| r.span())),
+            ("light_samples", self.light_samples.as_ref().map(|r| r.span())),
+        ];
+        const AREA: &str = "radiance, two_sided, light_samples";
+        let (name, takes) = match kind {
+            LightKind::Point => ("point", "position, intensity".to_string()),
+            LightKind::Directional => ("directional", "direction, irradiance".to_string()),
+            LightKind::Quad => ("quad", format!("corner, edge1, edge2, {AREA}")),
+            LightKind::Disk => ("disk", format!("center, normal, radius, {AREA}")),
+            LightKind::Sphere => ("sphere", format!("center, radius, {AREA}")),
         };
-        if let Some((key, Some(key_span))) = foreign.into_iter().find(|(_, s)| s.is_some()) {
+        let foreign = keys.into_iter().find(|(key, s)| s.is_some() && !takes.split(", ").any(|t| t == *key));
+        if let Some((key, Some(key_span))) = foreign {
             return Err(at(key_span, format!("a {name} light has no `{key}` (it takes {takes})")));
         }
-        Ok(match kind {
-            LightKind::Point => Light::Point {
-                position: point(required(&self.position, "position", span)?, "position")?.as_vec3(),
-                intensity: color(required(&self.intensity, "intensity", span)?, "intensity", None)?,
+        let pos = |v: &Option<Spanned<V3>>, key: &str| Ok::<_, Problem>(point(required(v, key, span)?, key)?.as_vec3());
+        let dir =
+            |v: &Option<Spanned<V3>>, key: &str| Ok::<_, Problem>(direction(required(v, key, span)?, key)?.as_vec3());
+        let radius = || {
+            let r = required(&self.radius, "radius", span)?;
+            let value = number(r, "radius")?;
+            if !(value > 0.0 && (value as f32).is_finite()) {
+                return Err(at(r.span(), format!("radius {value} must be > 0")));
+            }
+            Ok(value as f32)
+        };
+        let shape = match kind {
+            LightKind::Point => {
+                return Ok(AnyLight::Delta(Light::Point {
+                    position: pos(&self.position, "position")?,
+                    intensity: color(required(&self.intensity, "intensity", span)?, "intensity", None)?,
+                }));
+            }
+            LightKind::Directional => {
+                return Ok(AnyLight::Delta(Light::Directional {
+                    direction: dir(&self.direction, "direction")?,
+                    irradiance: color(required(&self.irradiance, "irradiance", span)?, "irradiance", None)?,
+                }));
+            }
+            LightKind::Quad => Shape::Quad {
+                corner: pos(&self.corner, "corner")?,
+                edge1: pos(&self.edge1, "edge1")?,
+                edge2: pos(&self.edge2, "edge2")?,
             },
-            LightKind::Directional => Light::Directional {
-                direction: direction(required(&self.direction, "direction", span)?, "direction")?.as_vec3(),
-                irradiance: color(required(&self.irradiance, "irradiance", span)?, "irradiance", None)?,
+            LightKind::Disk => Shape::Disk {
+                center: pos(&self.center, "center")?,
+                normal: dir(&self.normal, "normal")?.normalize(),
+                radius: radius()?,
             },
-        })
+            LightKind::Sphere => Shape::Sphere { center: pos(&self.center, "center")?, radius: radius()? },
+        };
+        let light = AreaLight {
+            shape,
+            radiance: color(required(&self.radiance, "radiance", span)?, "radiance", None)?,
+            two_sided: self.two_sided.as_ref().is_some_and(|t| *t.get_ref()),
+            samples: self.light_samples.as_ref().map_or(1, |n| *n.get_ref()),
+        };
+        if let Some(problem) = light.problem() {
+            let at_key =
+                if problem.starts_with("light_samples") { self.light_samples.as_ref().map(|n| n.span()) } else { None };
+            return Err(at(at_key.unwrap_or_else(|| span.clone()), problem));
+        }
+        Ok(AnyLight::Area(light))
     }
 }

@@ -52,6 +52,10 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         scene.planes,
         scene.names
     );
+    // Only when there are any: scenes without area lights keep the fingerprints they had.
+    if !scene.area_lights.is_empty() {
+        let _ = write!(h, "area {:?}", scene.area_lights);
+    }
     for m in &scene.meshes {
         let _ = write!(h, "mesh {:?} {} {:?}", m.name, m.material, m.triangle_materials);
         h.bytes(bytemuck::cast_slice(&m.positions));

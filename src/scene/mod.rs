@@ -6,6 +6,7 @@
 //! lone mesh file ([`from_mesh_file`]) and a lone glTF file ([`from_gltf_file`]). Nothing downstream knows which file format the
 //! geometry came from.
 
+pub mod emitters;
 pub mod file;
 pub mod gltf;
 pub mod hash;
@@ -21,6 +22,7 @@ pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};
 use crate::light::Light;
+use crate::light::area::AreaLight;
 use crate::material::Material;
 use crate::math::{Aabb, Vec3};
 
@@ -93,6 +95,9 @@ pub struct Scene {
     pub image: ImageSpec,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
+    /// Lights with a shape; their visible geometry is among the meshes and spheres
+    /// ([`emitters`]).
+    pub area_lights: Vec<AreaLight>,
     pub meshes: Vec<Mesh>,
     pub spheres: Vec<Sphere>,
     pub planes: Vec<Plane>,

@@ -1,7 +1,10 @@
 //! Light sources, in physical units so images compare with other renderers.
 //!
-//! Both kinds are delta lights: each lights a point from exactly one direction, tested with
-//! one shadow ray, which gives Whitted's hard shadows.
+//! Point and directional lights ([`Light`]) are delta lights: each lights a point from exactly
+//! one direction, tested with one shadow ray, which gives Whitted's hard shadows. Lights with
+//! a shape ([`area::AreaLight`]) are sampled, which gives soft shadows.
+
+pub mod area;
 
 use crate::math::Vec3;
 
