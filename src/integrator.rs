@@ -558,6 +558,7 @@ impl<A: Accel> Whitted<'_, A> {
 
     /// [`Whitted::shade`], also adding each term to `split` when given. The returned radiance
     /// is summed exactly as without `split`.
+    #[allow(clippy::too_many_arguments)] // the ray, the hit, the path's state, and what it adds to
     fn shade_split(
         &self,
         ray: &Ray,

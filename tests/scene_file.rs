@@ -238,7 +238,8 @@ fn every_shipped_scene_loads() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "toml") {
             let s = strahl::scene::load(&path).unwrap_or_else(|e| panic!("{e}")).scene;
-            assert!(!s.lights.is_empty() && !s.materials.is_empty(), "{}", path.display());
+            let lit = !s.lights.is_empty() || !s.area_lights.is_empty();
+            assert!(lit && !s.materials.is_empty(), "{}", path.display());
             names.push(path.file_stem().unwrap().to_string_lossy().into_owned());
         }
     }
@@ -249,6 +250,13 @@ fn every_shipped_scene_loads() {
     assert!(close(cornell.meshes[0].positions[3], Vec3::new(0.5496, 0.0, 0.5592)));
     assert_eq!(cornell.spheres.len(), 2);
     assert!((cornell.spheres[0].radius - 0.1).abs() < 1e-7);
+    // The published light: the 130 × 105 mm opening as a quad light facing down, and no
+    // point light; its visible geometry is the last mesh.
+    assert!(cornell.lights.is_empty());
+    let [light] = cornell.area_lights[..] else { panic!("{:?}", cornell.area_lights) };
+    assert!((light.area() - 0.130 * 0.105).abs() < 1e-9);
+    let quad = cornell.meshes.last().unwrap();
+    assert_eq!((cornell.mesh_name(cornell.meshes.len() - 1), quad.indices.len()), ("area light 0", 2));
     assert!(strahl::scene::load(dir.join("spheres.toml")).unwrap().scene.spheres.len() >= 1000);
 }
 
