@@ -89,7 +89,7 @@ fn disk_light_on_its_axis_converges_to_pi_l_r2_over_h2_plus_r2() {
 #[test]
 fn a_fully_visible_sphere_light_gives_pi_l_r2_over_d2_cos_theta() {
     let (l, r, c) = (2.0, 0.4, [1.5, 3.0, 0.0]);
-    let d = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) as f64;
+    let d: f64 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
     let cos = c[1] / d.sqrt();
     let exact = PI * l * r * r / d * cos;
     let light = format!(
@@ -135,7 +135,6 @@ fn umbra_is_exactly_black_and_full_light_exactly_unoccluded() {
     let open = scene(&on_floor(&format!("{view}{light}")));
     let blocked = scene(&on_floor(&format!("{view}{light}{blocker}")));
     let (a, _) = common::render(&open);
-    let view = view.to_string();
     let (b, _) = common::render(&blocked);
     let camera = Camera::new(&open.camera, 64, 64).unwrap();
     let (mut umbra, mut lit, mut penumbra) = (0, 0, 0);
@@ -211,7 +210,7 @@ fn bad_area_lights_are_refused_at_their_line() {
         ("type = \"quad\"\ncorner = [0, 0, 0]\nedge1 = [1, 0, 0]\nedge2 = [2, 0, 0]\nradiance = 1\n", "span no area"),
         ("type = \"point\"\nposition = [0, 0, 0]\nintensity = 1\nradiance = 1\n", "a point light has no `radiance`"),
     ] {
-        let e = from_toml_str(&format!("{base}{light}"), Path::new("bad.toml")).err().expect(light).to_string();
+        let e = from_toml_str(&format!("{base}{light}"), Path::new("bad.toml")).expect_err(light).to_string();
         assert!(e.starts_with("bad.toml:") && e.contains(expected) && !e.contains('\n'), "{e}");
     }
 }
