@@ -21,6 +21,15 @@
 //! and its ray is `r(t) = e + t·s/|s|` with `s = u·u + v·v − d·w`. The direction has unit
 //! length, so `t` along a camera ray is a distance from the eye.
 //!
+//! **Thin lens.** With an aperture of radius `a > 0` and a focus distance `f` (along `−w`;
+//! by default `|e − z|`), the ray of image point `s` starts at a point of the lens disk
+//! `o = e + a·(x·u + y·v)` (`(x, y)` the lens sample mapped onto the unit disk) and passes
+//! through the point `e + f·s` where the pinhole ray meets the plane in focus:
+//! `r(t) = o + t·(e + f·s − o)/|e + f·s − o|`. Points on that plane stay sharp (every lens
+//! point sees them through the same pixel point); a point at distance `z` spreads over a
+//! disk of radius `a·|1/f − 1/z|` on the image plane at distance 1, the thin-lens circle of
+//! confusion. `a = 0` is the pinhole above, bit for bit.
+//!
 //! The basis and the ray directions are computed in f64 and rounded to f32 once, so a ray is
 //! the correctly rounded lecture formula: the centre pixel of an odd-sized image looks exactly
 //! along `−w` (as f32), and rays of neighbouring pixels differ by what the geometry says, not
@@ -64,6 +73,9 @@ pub struct Camera {
     t: f64,
     width: u32,
     height: u32,
+    /// Lens radius `a` (0: pinhole) and focus distance `f`.
+    aperture: f64,
+    focus: f64,
 }
 
 /// `up` counts as parallel to the view direction when the sine of the angle between them is
@@ -102,7 +114,12 @@ impl Camera {
         let v = w.cross(u).normalize();
         let t = IMAGE_PLANE_DISTANCE * (0.5 * (spec.fov_deg as f64).to_radians()).tan();
         let r = t * width as f64 / height as f64;
-        Ok(Camera { eye, u, v, w, l: -r, r, b: -t, t, width, height })
+        let (aperture, focus) = (spec.lens.aperture as f64, spec.lens.focus_distance as f64);
+        if !(aperture >= 0.0 && aperture.is_finite() && focus >= 0.0 && focus.is_finite()) {
+            return Err(CameraError::NotFinite { what: "lens", value: format!("{:?}", spec.lens) });
+        }
+        let focus = if focus > 0.0 { focus } else { back.length() };
+        Ok(Camera { eye, u, v, w, l: -r, r, b: -t, t, width, height, aperture, focus })
     }
 
     /// The basis `(u, v, w)`: right, up, and backwards (away from the target).
@@ -143,6 +160,25 @@ impl Camera {
         Ray::new(self.eye.as_vec3(), (s / s.length()).as_vec3())
     }
 
+    /// Whether the camera has a lens (an aperture > 0) and so needs lens samples.
+    pub fn has_lens(&self) -> bool {
+        self.aperture > 0.0
+    }
+
+    /// The ray through the point `offset` of pixel `(x, y)` from the point `lens` (in
+    /// `[0, 1)²`, mapped onto the lens disk) of the lens; [`Camera::ray`] for a pinhole.
+    #[inline]
+    pub fn lens_ray(&self, x: u32, y: u32, offset: Vec2, lens: Vec2) -> Ray {
+        if self.aperture == 0.0 {
+            return self.ray(x, y, offset);
+        }
+        let s = self.direction_f64(x, y, offset);
+        let (lx, ly) = crate::sampler::concentric_disk(lens);
+        let origin = self.eye + self.aperture * (lx * self.u + ly * self.v);
+        let dir = self.eye + self.focus * s - origin;
+        Ray::new(origin.as_vec3(), (dir / dir.length()).as_vec3())
+    }
+
     /// The ray through the centre of pixel `(x, y)`: the lecture's one ray per pixel.
     pub fn centre_ray(&self, x: u32, y: u32) -> Ray {
         self.ray(x, y, Vec2::splat(0.5))
@@ -152,9 +188,10 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Lens;
 
     fn spec(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32) -> CameraSpec {
-        CameraSpec { eye, target, up, fov_deg }
+        CameraSpec { eye, target, up, fov_deg, lens: Default::default() }
     }
 
     #[test]
@@ -164,6 +201,38 @@ mod tests {
         let (l, r, b, t) = c.edges();
         assert!((t - 1.0).abs() < 1e-15 && (b + 1.0).abs() < 1e-15);
         assert!((r - 2.0).abs() < 1e-15 && (l + 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_focus_plane_is_sharp_and_other_planes_blur_by_the_circle_of_confusion() {
+        let (a, f) = (0.05f32, 4.0f32);
+        let lens = Lens { aperture: a, focus_distance: f };
+        let spec = CameraSpec { lens, ..spec(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0) };
+        let c = Camera::new(&spec, 64, 48).unwrap();
+        let pinhole = Camera::new(&CameraSpec { lens: Lens::PINHOLE, ..spec }, 64, 48).unwrap();
+        // Where a ray meets the plane z = 5 − depth (perpendicular to the view, at `depth`).
+        let at = |r: Ray, depth: f64| {
+            let (o, d) = (r.org.as_dvec3(), r.dir.as_dvec3());
+            o + d * ((o.z - (5.0 - depth)) / -d.z)
+        };
+        let lens_points = [Vec2::new(0.0, 0.0), Vec2::new(0.99, 0.5), Vec2::new(0.5, 0.01), Vec2::new(0.3, 0.8)];
+        for (x, y) in [(0, 0), (40, 30), (63, 47)] {
+            let o = Vec2::new(0.25, 0.75);
+            let sharp = at(pinhole.ray(x, y, o), f as f64);
+            for &l in &lens_points {
+                // On the focus plane every lens point meets the pinhole ray's point.
+                assert!((at(c.lens_ray(x, y, o, l), f as f64) - sharp).length() < 1e-5);
+                // At depth z the spread from the pinhole point is the lens offset times
+                // (1 − z/f): the circle of confusion a·|1/f − 1/z| on the image plane, times z.
+                let z = 10.0;
+                let spread = (at(c.lens_ray(x, y, o, l), z) - at(pinhole.ray(x, y, o), z)).length();
+                let (lx, ly) = crate::sampler::concentric_disk(l);
+                let expected = a as f64 * (lx * lx + ly * ly).sqrt() * (1.0 - z / f as f64).abs();
+                assert!((spread - expected).abs() < 1e-5 * z, "{spread} vs {expected}");
+            }
+        }
+        // Aperture 0 is the pinhole, bit for bit.
+        assert_eq!(pinhole.lens_ray(3, 4, Vec2::splat(0.5), Vec2::splat(0.9)), pinhole.centre_ray(3, 4));
     }
 
     #[test]

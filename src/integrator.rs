@@ -1,7 +1,9 @@
 //! The Whitted integrator: the lecture's ray tracer, in its three steps.
 //!
 //! 1. **Ray generation** ([`crate::camera`]): for every pixel and sample, the pinhole ray
-//!    `e + t·s/|s|` through the sample's position ([`crate::sampler`]).
+//!    `e + t·s/|s|` through the sample's position ([`crate::sampler`]), or with a thin lens
+//!    the ray from a lens point (stratified across the pixel's samples, [`SampleDims`])
+//!    through the point of the focus plane that pinhole ray meets.
 //! 2. **Intersection** ([`Accel`]): the closest hit with `t > 0`. Primary rays of a tile go
 //!    to [`Accel::intersect_batch`] (Embree traces them as 8-wide packets, 2–4× faster on
 //!    coherent rays); secondary rays one at a time; shadow rays as any-hit `occluded` queries.
@@ -453,12 +455,12 @@ impl<A: Accel> Whitted<'_, A> {
         let spp = self.scene.image.spp;
         let mut samplers: Vec<PixelSampler> =
             pixels.iter().map(|&(x, y)| PixelSampler::new(spp, y as u64 * width + x as u64)).collect();
-        let lights = !self.scene.area_lights.is_empty();
+        let (lights, lens) = (!self.scene.area_lights.is_empty(), self.camera.has_lens());
         let mut dims: Vec<SampleDims> = pixels
             .iter()
             .map(|&(x, y)| {
-                if lights {
-                    SampleDims::new(spp, y as u64 * width + x as u64, lights, false)
+                if lights || lens {
+                    SampleDims::new(spp, y as u64 * width + x as u64, lights, lens)
                 } else {
                     SampleDims::unused()
                 }
@@ -471,13 +473,16 @@ impl<A: Accel> Whitted<'_, A> {
         for sample in 0..spp {
             // 1. Ray generation.
             rays.clear();
-            rays.extend(pixels.iter().zip(&mut samplers).map(|(&(x, y), s)| self.camera.ray(x, y, s.next_offset())));
+            rays.extend(pixels.iter().zip(&mut samplers).zip(&mut dims).map(|((&(x, y), s), d)| {
+                d.begin(sample);
+                let offset = s.next_offset();
+                if lens { self.camera.lens_ray(x, y, offset, d.lens()) } else { self.camera.ray(x, y, offset) }
+            }));
             counts.primary += rays.len() as u64;
             // 2. Intersection, as packets.
             self.accel.intersect_batch(&rays, &mut hits)?;
             // 3. Shading.
             for (((ray, hit), acc), d) in rays.iter().zip(&hits).zip(&mut accumulators).zip(&mut dims) {
-                d.begin(sample);
                 let (radiance, split, first) = self.shade_primary_split(ray, hit.as_ref(), d, &mut counts)?;
                 let object = first.filter(|_| crypto).map(|f| ids.object_of(self.scene, &f.hit));
                 acc.add(radiance, &split, first, object);

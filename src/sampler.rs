@@ -145,6 +145,18 @@ impl SampleDims {
     }
 }
 
+/// Shirley and Chiu's concentric map of `[0, 1)²` onto the unit disk, which preserves areas
+/// (so uniform points stay uniform) and keeps strata compact.
+pub fn concentric_disk(u: Vec2) -> (f64, f64) {
+    let (a, b) = (2.0 * u.x as f64 - 1.0, 2.0 * u.y as f64 - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return (0.0, 0.0);
+    }
+    let q = std::f64::consts::FRAC_PI_4;
+    let (r, phi) = if a.abs() > b.abs() { (a, q * (b / a)) } else { (b, 2.0 * q - q * (a / b)) };
+    (r * phi.cos(), r * phi.sin())
+}
+
 /// All `spp` sample positions of pixel `pixel_index`, in sample order.
 pub fn offsets(spp: u32, pixel_index: u64) -> Vec<Vec2> {
     let mut s = PixelSampler::new(spp, pixel_index);

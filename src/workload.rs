@@ -194,7 +194,8 @@ mod tests {
     use crate::math::Aabb;
 
     fn camera(eye: Vec3, target: Vec3, width: u32, height: u32) -> Camera {
-        Camera::new(&CameraSpec { eye, target, up: Vec3::Y, fov_deg: 40.0 }, width, height).unwrap()
+        Camera::new(&CameraSpec { eye, target, up: Vec3::Y, fov_deg: 40.0, lens: Default::default() }, width, height)
+            .unwrap()
     }
 
     #[test]

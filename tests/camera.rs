@@ -7,7 +7,13 @@ use strahl::math::Vec3;
 use strahl::scene::CameraSpec;
 
 fn spec(eye: [f32; 3], target: [f32; 3], up: [f32; 3], fov_deg: f32) -> CameraSpec {
-    CameraSpec { eye: Vec3::from(eye), target: Vec3::from(target), up: Vec3::from(up), fov_deg }
+    CameraSpec {
+        eye: Vec3::from(eye),
+        target: Vec3::from(target),
+        up: Vec3::from(up),
+        fov_deg,
+        lens: Default::default(),
+    }
 }
 
 /// A few cameras in general position (and the textbook one).

@@ -43,6 +43,7 @@ fn instanced_scene() -> Scene {
             target: Vec3::new(0.0, 0.5, 0.0),
             up: Vec3::Y,
             fov_deg: 45.0,
+            lens: Default::default(),
         },
         image: strahl::scene::ImageSpec { width: 240, height: 160, ..Default::default() },
         materials: vec![

@@ -27,7 +27,13 @@ const INTENSITY: Vec3 = Vec3::new(10.0, 20.0, 30.0);
 /// which see the floor.
 fn floor_scene() -> Scene {
     Scene {
-        camera: CameraSpec { eye: Vec3::new(0.0, 2.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 50.0 },
+        camera: CameraSpec {
+            eye: Vec3::new(0.0, 2.0, 4.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_deg: 50.0,
+            lens: Default::default(),
+        },
         image: ImageSpec { width: 9, height: 7, spp: 1, max_depth: 8, background: BACKGROUND, ambient: AMBIENT },
         materials: vec![Material::matte("diffuse", RHO)],
         lights: vec![Light::Point { position: POINT, intensity: INTENSITY }],
@@ -142,7 +148,13 @@ fn a_perfect_mirror_shows_the_background_exactly() {
 fn slab_scene(max_depth: u32) -> Scene {
     let glass = Material::clear_glass("glass", 1.5);
     Scene {
-        camera: CameraSpec { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 30.0 },
+        camera: CameraSpec {
+            eye: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_deg: 30.0,
+            lens: Default::default(),
+        },
         image: ImageSpec { width: 1, height: 1, spp: 1, max_depth, background: BACKGROUND, ambient: AMBIENT },
         materials: vec![glass],
         lights: vec![Light::Point { position: Vec3::new(0.0, 0.0, 3.0), intensity: Vec3::ONE }],
@@ -253,6 +265,7 @@ fn total_internal_reflection_keeps_light_inside() {
             target: Vec3::new(theta.tan(), 0.0, 0.0),
             up: Vec3::Z,
             fov_deg: 10.0,
+            lens: Default::default(),
         },
         image: ImageSpec { width: 1, height: 1, spp: 1, max_depth: 1, background: BACKGROUND, ambient: Vec3::ZERO },
         materials: vec![glass],
@@ -276,7 +289,13 @@ fn facing_perfect_mirrors_bounce_to_the_depth_limit_without_exhausting_the_stack
     let mirror = Material::mirror("mirror", Vec3::ONE);
     let max_depth = integrator::MAX_DEPTH_LIMIT;
     let s = Scene {
-        camera: CameraSpec { eye: Vec3::new(0.0, 0.5, 0.0), target: Vec3::ZERO, up: Vec3::Z, fov_deg: 10.0 },
+        camera: CameraSpec {
+            eye: Vec3::new(0.0, 0.5, 0.0),
+            target: Vec3::ZERO,
+            up: Vec3::Z,
+            fov_deg: 10.0,
+            lens: Default::default(),
+        },
         image: ImageSpec { width: 3, height: 3, spp: 1, max_depth, background: BACKGROUND, ambient: AMBIENT },
         materials: vec![mirror],
         planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0), Plane::through(Vec3::Y, -Vec3::Y, 0)],
@@ -302,7 +321,13 @@ fn vertex_colours_and_normals_are_interpolated_barycentrically() {
     let normals = [Vec3::new(-0.3, 0.0, 1.0), Vec3::new(0.3, 0.0, 1.0), Vec3::new(0.0, 0.4, 1.0)];
     let sphere = Sphere { center: Vec3::new(1.2, 0.3, -0.5), radius: 0.6, material: 0 };
     let s = Scene {
-        camera: CameraSpec { eye: Vec3::new(0.0, 0.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0 },
+        camera: CameraSpec {
+            eye: Vec3::new(0.0, 0.0, 4.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_deg: 40.0,
+            lens: Default::default(),
+        },
         image: ImageSpec { width: 32, height: 24, spp: 1, ..Default::default() },
         materials: vec![Material::matte("diffuse", Vec3::ONE)],
         meshes: vec![Mesh {
@@ -364,6 +389,7 @@ fn the_checkerboard_floor_alternates_by_world_cell() {
             target: Vec3::new(0.2, -1.0, -0.5),
             up: Vec3::Y,
             fov_deg: 60.0,
+            lens: Default::default(),
         },
         image: ImageSpec { width: 40, height: 30, spp: 1, ..Default::default() },
         materials: vec![Material { diffuse: Texture::Checker { even, odd, size: 1.0 }, ..Default::default() }],

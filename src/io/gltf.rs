@@ -532,6 +532,7 @@ impl Reader<'_> {
             target: (eye + forward).as_vec3(),
             up: up.as_vec3(),
             fov_deg: p.yfov().to_degrees(),
+            lens: Default::default(),
         };
         let name = camera.name().or(node.name()).map(str::to_string);
         self.out.cameras.push(GltfCamera { index: camera.index(), name, spec, aspect_ratio: p.aspect_ratio() });

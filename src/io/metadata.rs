@@ -161,6 +161,7 @@ mod tests {
             target: Vec3::new(-1.0, 0.5, -2.0),
             up: Vec3::Y,
             fov_deg: 50.0,
+            lens: Default::default(),
         };
         let camera = Camera::new(&spec, 64, 48).unwrap();
         let (to_camera, to_ndc) = camera_matrices(&camera);

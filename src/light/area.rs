@@ -34,6 +34,7 @@ use glam::DVec3;
 
 use crate::light::Incidence;
 use crate::math::{Vec2, Vec3};
+use crate::sampler::concentric_disk;
 
 /// The largest `light_samples` a light may ask for (shadow rays per shading point).
 pub const MAX_LIGHT_SAMPLES: u32 = 4096;
@@ -69,18 +70,6 @@ pub fn basis(n: DVec3) -> (DVec3, DVec3) {
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
-}
-
-/// Shirley and Chiu's concentric map of `[0, 1)²` onto the unit disk, which preserves areas
-/// (so uniform points stay uniform) and keeps strata compact.
-pub fn concentric_disk(u: Vec2) -> (f64, f64) {
-    let (a, b) = (2.0 * u.x as f64 - 1.0, 2.0 * u.y as f64 - 1.0);
-    if a == 0.0 && b == 0.0 {
-        return (0.0, 0.0);
-    }
-    let q = std::f64::consts::FRAC_PI_4;
-    let (r, phi) = if a.abs() > b.abs() { (a, q * (b / a)) } else { (b, 2.0 * q - q * (a / b)) };
-    (r * phi.cos(), r * phi.sin())
 }
 
 impl AreaLight {

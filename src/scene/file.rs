@@ -29,6 +29,7 @@ use crate::light::area::{AreaLight, Shape};
 use crate::material::{Material, Texture};
 use crate::math::Vec3;
 use crate::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
+use crate::scene::Lens;
 
 /// Most spheres a scene may have, all `random_spheres` objects and `sphere`s together (a typo
 /// should not exhaust memory: 25 objects of 10,000,000 each took 5 GB before the total was
@@ -283,6 +284,8 @@ struct CameraFile {
     target: Spanned<V3>,
     up: Option<Spanned<V3>>,
     fov_deg: Spanned<f64>,
+    aperture: Option<Spanned<f64>>,
+    focus_distance: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -515,12 +518,27 @@ fn prefix(mut p: Problem, what: &str) -> Problem {
 }
 
 impl CameraFile {
+    /// A lens length in metres: finite and at least `min` (absent: 0, the pinhole's).
+    fn lens_value(&self, value: &Option<Spanned<f64>>, what: &str, min: f64) -> Result<f32, Problem> {
+        let Some(v) = value else { return Ok(0.0) };
+        let x = number(v, what)?;
+        if !(x >= min && (x as f32).is_finite()) {
+            let bound = if min > 0.0 { "> 0" } else { "≥ 0" };
+            return Err(at(v.span(), format!("camera: {what} {x} must be finite and {bound} (metres)")));
+        }
+        Ok(x as f32)
+    }
+
     fn to_spec(&self, span: &Range<usize>) -> Result<CameraSpec, Problem> {
         let spec = CameraSpec {
             eye: point(&self.eye, "eye")?.as_vec3(),
             target: point(&self.target, "target")?.as_vec3(),
             up: self.up.as_ref().map_or(Ok(DVec3::Y), |up| point(up, "up"))?.as_vec3(),
             fov_deg: number(&self.fov_deg, "fov_deg")? as f32,
+            lens: Lens {
+                aperture: self.lens_value(&self.aperture, "aperture", 0.0)?,
+                focus_distance: self.lens_value(&self.focus_distance, "focus_distance", f64::MIN_POSITIVE)?,
+            },
         };
         if let Some((field, message)) = camera_problem(&spec) {
             let field_span = match field {

@@ -26,18 +26,42 @@ use crate::light::area::AreaLight;
 use crate::material::Material;
 use crate::math::{Aabb, Vec3};
 
-/// Where the camera stands and looks (the lecture's `e`, `z`, `up`, vertical field of view).
+/// Where the camera stands and looks (the lecture's `e`, `z`, `up`, vertical field of view),
+/// and its lens.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraSpec {
     pub eye: Vec3,
     pub target: Vec3,
     pub up: Vec3,
     pub fov_deg: f32,
+    pub lens: Lens,
+}
+
+/// A thin lens (see [`crate::camera`]): the radius of its aperture and the distance, along the
+/// view direction, of the plane it keeps in focus. An aperture of 0 is the lecture's pinhole.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lens {
+    /// Radius of the aperture, metres; 0 for a pinhole.
+    pub aperture: f32,
+    /// Distance of the plane in focus from the eye along the view direction, metres; 0 for
+    /// the distance from the eye to the target.
+    pub focus_distance: f32,
+}
+
+impl Lens {
+    /// The lecture's pinhole: everything in focus.
+    pub const PINHOLE: Lens = Lens { aperture: 0.0, focus_distance: 0.0 };
 }
 
 impl Default for CameraSpec {
     fn default() -> Self {
-        CameraSpec { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0 }
+        CameraSpec {
+            eye: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_deg: 40.0,
+            lens: Lens::PINHOLE,
+        }
     }
 }
 
@@ -50,7 +74,7 @@ impl CameraSpec {
         let target = bounds.centroid();
         let radius = (0.5 * bounds.extent().length()).max(f32::MIN_POSITIVE);
         let distance = radius / (0.5 * fov_deg.to_radians()).sin();
-        CameraSpec { eye: target + distance * Vec3::Z, target, up: Vec3::Y, fov_deg }
+        CameraSpec { eye: target + distance * Vec3::Z, target, up: Vec3::Y, fov_deg, lens: Lens::PINHOLE }
     }
 }
 

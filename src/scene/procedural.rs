@@ -206,6 +206,7 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
             target: Vec3::new(0.0, 0.7, 0.0),
             up: Vec3::Y,
             fov_deg: 45.0,
+            lens: Default::default(),
         },
         image: ImageSpec {
             width,
