@@ -21,7 +21,8 @@
 //! `V` the shadow ray's verdict. An area light adds `light_samples` such terms, each with a
 //! point sampled on the light and `E = L·cosθ_l/(d²·pdf_A)/light_samples`
 //! ([`crate::light::area`]): the same shadow ray and BRDF, so its light lands in the direct
-//! diffuse and specular passes. The light points are stratified across the pixel's samples
+//! diffuse and specular passes. Every mesh with an emitting material is such a light too, with
+//! one sample per shading point ([`crate::light::mesh`]). The light points are stratified across the pixel's samples
 //! ([`SampleDims`]). Emitters are ordinary objects to every ray (their `L_e` is what camera,
 //! mirror and glass rays see, from the front only when one-sided); a shadow ray ends just
 //! short of its light sample, so a light does not shadow itself. A dielectric (`transmission = k_t ≠ 0`) adds `k_t·R` to the
@@ -79,6 +80,7 @@ use crate::cryptomatte;
 use crate::film::Film;
 use crate::ids::ObjectIds;
 use crate::light::Incidence;
+use crate::light::mesh::MeshEmitter;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::optics;
 use crate::passes::{LIGHT_PASSES, Pass};
@@ -188,7 +190,7 @@ pub fn render_tiles<A: Accel>(
     check_scene(scene)?;
     let img = &scene.image;
     let camera = Camera::new(&scene.camera, img.width, img.height)?;
-    let whitted = Whitted { scene, accel, camera };
+    let whitted = Whitted::new(scene, accel, camera);
     let ids = ObjectIds::new(scene);
     let inside = film.region();
     if let Some(t) = job.tiles.iter().find(|t| t.intersection(&inside) != Some(**t)) {
@@ -432,9 +434,16 @@ pub struct Whitted<'a, A: Accel> {
     pub scene: &'a Scene,
     pub accel: &'a A,
     pub camera: Camera,
+    /// The scene's emissive meshes, lighting it ([`MeshEmitter::of_scene`]).
+    pub emitters: Vec<MeshEmitter>,
 }
 
-impl<A: Accel> Whitted<'_, A> {
+impl<'a, A: Accel> Whitted<'a, A> {
+    /// The integrator of `scene` seen by `camera`, tracing through `accel`.
+    pub fn new(scene: &'a Scene, accel: &'a A, camera: Camera) -> Self {
+        Whitted { scene, accel, camera, emitters: MeshEmitter::of_scene(scene) }
+    }
+
     /// Renders one tile: all its pixels' samples, sample by sample, each round as one batch
     /// of primary rays. Returns the pixels (in packet order), their accumulated samples and the
     /// rays traced.
@@ -455,7 +464,8 @@ impl<A: Accel> Whitted<'_, A> {
         let spp = self.scene.image.spp;
         let mut samplers: Vec<PixelSampler> =
             pixels.iter().map(|&(x, y)| PixelSampler::new(spp, y as u64 * width + x as u64)).collect();
-        let (lights, lens) = (!self.scene.area_lights.is_empty(), self.camera.has_lens());
+        let lights = !(self.scene.area_lights.is_empty() && self.emitters.is_empty());
+        let lens = self.camera.has_lens();
         let mut dims: Vec<SampleDims> = pixels
             .iter()
             .map(|&(x, y)| {
@@ -632,6 +642,11 @@ impl<A: Accel> Whitted<'_, A> {
                     if let Some(inc) = light.sample(sp.p, dims.light(j, grid)) {
                         direct(inc, counts)?;
                     }
+                }
+            }
+            for emitter in &self.emitters {
+                if let Some(inc) = emitter.sample(sp.p, dims.light(0, (1, 1))) {
+                    direct(inc, counts)?;
                 }
             }
         }

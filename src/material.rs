@@ -89,6 +89,9 @@ pub struct Material {
     /// Whether only the front (the side the geometric normal points to) emits; both do
     /// otherwise. The geometry of a one-sided area light has it.
     pub emission_one_sided: bool,
+    /// Whether this is the material of an area light's visible geometry
+    /// ([`crate::scene::emitters`]): that light is sampled as itself, never as a mesh light.
+    pub area_light: bool,
 }
 
 impl Default for Material {
@@ -104,6 +107,7 @@ impl Default for Material {
             ior: 1.5,
             emission: Vec3::ZERO,
             emission_one_sided: false,
+            area_light: false,
         }
     }
 }

@@ -214,3 +214,31 @@ fn bad_area_lights_are_refused_at_their_line() {
         assert!(e.starts_with("bad.toml:") && e.contains(expected) && !e.contains('\n'), "{e}");
     }
 }
+
+#[test]
+fn an_emissive_mesh_lights_like_the_quad_light_of_the_same_square() {
+    // A 1 × 1 m square at height 2 above the receiver point, radiance 3: as an emissive mesh
+    // (two-sided, one sample per shading point) and as a two-sided quad light. Each quadrant
+    // of it (a = b = 1/2, height c = 2) has the form factor
+    // F = (a/√(a²+c²)·atan(b/√(a²+c²)) + b/√(b²+c²)·atan(a/√(b²+c²)))/2π, and E = π·L·4F.
+    let (l, a, c): (f64, f64, f64) = (3.0, 0.5, 2.0);
+    let k = a / (a * a + c * c).sqrt();
+    let exact = PI * l * 4.0 * (2.0 * k * k.atan()) / (2.0 * PI);
+    let square = "positions = [[-0.5, 2, -0.5], [0.5, 2, -0.5], [0.5, 2, 0.5], [-0.5, 2, 0.5]]\n\
+                  indices = [[0, 1, 2], [0, 2, 3]]\n";
+    let mesh =
+        format!("[materials.glow]\nemission = {l}\n[[objects]]\ntype = \"triangles\"\n{square}material = \"glow\"\n");
+    let quad = format!(
+        "[[lights]]\ntype = \"quad\"\ncorner = [-0.5, 2, -0.5]\nedge1 = [1, 0, 0]\nedge2 = [0, 0, 1]\n\
+         radiance = {l}\ntwo_sided = true\n"
+    );
+    let view = looking_down(1.0, 0.01, 32, 4);
+    for (what, rest) in [("mesh", &mesh), ("quad", &quad)] {
+        let e = irradiance_estimates(&common::render(&scene(&on_floor(&format!("{view}{rest}")))).0);
+        let (mean, se) = mean_and_standard_error(&e);
+        assert!((mean - exact).abs() <= 3.0 * se, "{what}: {mean} vs {exact} ± {se}");
+    }
+    // With `mesh_lights = false` the square glows but lights nothing.
+    let off = on_floor(&format!("{}mesh_lights = false\n{mesh}", view));
+    assert!(common::render(&scene(&off)).0.rgba.iter().all(|p| p[..3] == [0.0; 3]));
+}

@@ -62,7 +62,7 @@ fn one_sample_per_pixel_is_exactly_the_pixel_centre_ray() {
     let (film, counts) = integrator::render(&scene, &accel, &|_| {}).unwrap();
     // The same pixel traced by hand: the centre ray, Embree's single-ray query, the shader.
     let camera = Camera::new(&scene.camera, 24, 18).unwrap();
-    let whitted = Whitted { scene: &scene, accel: &accel, camera };
+    let whitted = Whitted::new(&scene, &accel, camera);
     let mut by_hand = RayCounts::default();
     for y in 0..18 {
         for x in 0..24 {
@@ -91,7 +91,7 @@ fn four_samples_are_four_distinct_stratified_positions_averaged() {
     let accel = common::accel(&scene);
     let (film, _) = integrator::render(&scene, &accel, &|_| {}).unwrap();
     let camera = Camera::new(&scene.camera, w, h).unwrap();
-    let whitted = Whitted { scene: &scene, accel: &accel, camera };
+    let whitted = Whitted::new(&scene, &accel, camera);
     let mut counts = RayCounts::default();
     let mut partial_coverage = 0;
     for y in 0..h {

@@ -114,7 +114,7 @@ fn cornell_box_obj_has_its_mtl_radiance_under_a_point_light() {
     let Some(scene) = data_scene(
         "cornell/CornellBox-Original.obj",
         "[camera]\neye = [0, 1, 3.9]\ntarget = [0, 1, 0]\nfov_deg = 40\n\
-         [image]\nwidth = 40\nheight = 40\nspp = 1\nambient = 0.05\n\
+         [image]\nwidth = 40\nheight = 40\nspp = 1\nambient = 0.05\nmesh_lights = false\n\
          [materials.unused]\ndiffuse = 0.5\n\
          [[lights]]\ntype = \"point\"\nposition = [0, 1.8, 0.2]\nintensity = 3\n\
          [[objects]]\ntype = \"mesh\"\nname = \"box\"\npath = MESH\n",

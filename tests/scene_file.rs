@@ -118,6 +118,7 @@ material = \"tiles\"
             ior: 1.5,
             emission: Vec3::ZERO,
             emission_one_sided: false,
+            area_light: false,
         }
     );
     assert_eq!(s.materials[1].emission, Vec3::new(10.0, 9.0, 8.0));

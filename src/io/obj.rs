@@ -574,6 +574,7 @@ impl MtlBlock {
             ior: self.ni.unwrap_or(if glass { 1.5 } else { 1.0 }),
             emission: self.ke.unwrap_or(Vec3::ZERO),
             emission_one_sided: false,
+            area_light: false,
         }
     }
 }

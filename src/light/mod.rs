@@ -5,6 +5,7 @@
 //! a shape ([`area::AreaLight`]) are sampled, which gives soft shadows.
 
 pub mod area;
+pub mod mesh;
 
 use crate::math::Vec3;
 

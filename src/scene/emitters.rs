@@ -29,6 +29,7 @@ pub fn add_emitters(scene: &mut Scene) {
             diffuse: Texture::Constant(Vec3::ZERO),
             emission: light.radiance,
             emission_one_sided: !light.two_sided,
+            area_light: true,
             ..Material::default()
         });
         let mesh = |positions: Vec<Vec3>, indices: Vec<[u32; 3]>| Mesh {

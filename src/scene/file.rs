@@ -297,6 +297,7 @@ struct ImageFile {
     max_depth: Option<Spanned<u32>>,
     background: Option<Spanned<Triple>>,
     ambient: Option<Spanned<Triple>>,
+    mesh_lights: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -565,6 +566,7 @@ impl ImageFile {
             max_depth: int(&self.max_depth, d.max_depth),
             background: self.background.as_ref().map_or(Ok(d.background), |c| color(c, "background", None))?,
             ambient: self.ambient.as_ref().map_or(Ok(d.ambient), |c| color(c, "ambient", None))?,
+            mesh_lights: self.mesh_lights.unwrap_or(d.mesh_lights),
         };
         if let Some((field, message)) = image_problem(&spec) {
             let field_span = match field {
@@ -619,6 +621,7 @@ impl MaterialFile {
             ior: ior as f32,
             emission: optional_color(&self.emission, "emission", None)?,
             emission_one_sided: false,
+            area_light: false,
         })
     }
 }

@@ -91,11 +91,22 @@ pub struct ImageSpec {
     pub background: Vec3,
     /// Uniform ambient radiance: a diffuse surface of albedo ρ reflects ρ·ambient.
     pub ambient: Vec3,
+    /// Whether meshes with an emitting material light the scene ([`crate::light::mesh`]);
+    /// they glow either way.
+    pub mesh_lights: bool,
 }
 
 impl Default for ImageSpec {
     fn default() -> Self {
-        ImageSpec { width: 640, height: 480, spp: 1, max_depth: 8, background: Vec3::ZERO, ambient: Vec3::ZERO }
+        ImageSpec {
+            width: 640,
+            height: 480,
+            spp: 1,
+            max_depth: 8,
+            background: Vec3::ZERO,
+            ambient: Vec3::ZERO,
+            mesh_lights: true,
+        }
     }
 }
 

@@ -215,6 +215,7 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
             max_depth: 8,
             background: Vec3::new(0.35, 0.55, 0.9),
             ambient: Vec3::splat(0.05),
+            mesh_lights: true,
         },
         materials,
         lights: vec![

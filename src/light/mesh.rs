@@ -1,0 +1,158 @@
+//! Emissive triangle meshes as area lights: every mesh whose material (or per-triangle
+//! material) has an `emission` `L ≠ 0` — a TOML material, an OBJ `Ke`, a glTF emissive —
+//! lights the scene like a quad light made of those triangles, two-sided (as the camera sees
+//! such a surface, from both sides).
+//!
+//! One sample per shading point per mesh: a triangle is chosen with probability proportional
+//! to its area and a point on it uniformly, so the points are uniform over the mesh's
+//! emitting area `A` (`pdf_A = 1/A`) and the estimate is, as for every area light,
+//!
+//! ```text
+//! Ê = L_i · cosθ_s · |cosθ_l| / d² · A          (L_i the chosen triangle's radiance)
+//! ```
+//!
+//! The triangle is picked by inverting the cumulative areas with the sample's first
+//! coordinate, and that coordinate is then rescaled inside the triangle's interval, so strata
+//! of the unit square stay strata of the mesh. A triangle point is `(1 − √u₁)·a +
+//! √u₁(1 − u₂)·b + √u₁·u₂·c` (uniform by area). Instances are not emitters (their emission
+//! shows but does not light). `mesh_lights = false` in `[image]` turns emitting meshes back
+//! into glowing surfaces that light nothing (as a point light placed by hand in a lamp's
+//! shade needs).
+
+use glam::DVec3;
+
+use crate::light::Incidence;
+use crate::math::{Vec2, Vec3};
+use crate::scene::Scene;
+
+/// The emitting triangles of one mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshEmitter {
+    /// Index into `Scene::meshes`.
+    pub mesh: u32,
+    corners: Vec<[DVec3; 3]>,
+    radiance: Vec<Vec3>,
+    /// `cdf[i]` = area of triangles `0..=i`; the last is the total.
+    cdf: Vec<f64>,
+}
+
+impl MeshEmitter {
+    /// The emitters of `scene`: one per mesh with emitting triangles of non-zero area (none
+    /// when the scene's `image.mesh_lights` is off).
+    pub fn of_scene(scene: &Scene) -> Vec<MeshEmitter> {
+        let mut out = Vec::new();
+        if !scene.image.mesh_lights {
+            return out;
+        }
+        for (k, mesh) in scene.meshes.iter().enumerate() {
+            let emission =
+                |i: usize| scene.materials.get(mesh.material_of(i) as usize).map_or(Vec3::ZERO, |m| m.emission);
+            let mut e = MeshEmitter { mesh: k as u32, corners: Vec::new(), radiance: Vec::new(), cdf: Vec::new() };
+            let mut total = 0.0;
+            for i in 0..mesh.indices.len() {
+                let l = emission(i);
+                // An area light's own geometry emits, but the light is sampled as itself.
+                let area_light = scene.materials.get(mesh.material_of(i) as usize).is_some_and(|m| m.area_light);
+                if l == Vec3::ZERO || area_light || !l.is_finite() {
+                    continue;
+                }
+                let [a, b, c] = mesh.triangle(i).map(|p| p.as_dvec3());
+                let area = 0.5 * (b - a).cross(c - a).length();
+                if area > 0.0 && area.is_finite() {
+                    total += area;
+                    e.corners.push([a, b, c]);
+                    e.radiance.push(l);
+                    e.cdf.push(total);
+                }
+            }
+            if !e.corners.is_empty() {
+                out.push(e);
+            }
+        }
+        out
+    }
+
+    /// The emitting area `A`, m².
+    pub fn area(&self) -> f64 {
+        self.cdf.last().copied().unwrap_or(0.0)
+    }
+
+    /// One sample of the mesh seen from `p` for the point `u ∈ [0, 1)²`, as
+    /// [`crate::light::area::AreaLight::sample`]; `None` when the point is `p` itself or seen
+    /// edge-on.
+    pub fn sample(&self, p: Vec3, u: Vec2) -> Option<Incidence> {
+        let total = self.area();
+        let target = u.x as f64 * total;
+        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        let start = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let u1 = ((target - start) / (self.cdf[i] - start)).clamp(0.0, 1.0);
+        let [a, b, c] = self.corners[i];
+        let s = u1.sqrt();
+        let y = (1.0 - s) * a + s * (1.0 - u.y as f64) * b + s * u.y as f64 * c;
+        let normal = (b - a).cross(c - a).normalize();
+        let to = y - p.as_dvec3();
+        let d2 = to.length_squared();
+        let w = to / d2.sqrt();
+        let cos_l = normal.dot(w).abs();
+        (d2 > 0.0 && cos_l > 0.0).then(|| Incidence {
+            to_light: w.as_vec3(),
+            distance: d2.sqrt() as f32,
+            normal_irradiance: (self.radiance[i].as_dvec3() * (cos_l * total / d2)).as_vec3(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::area::{AreaLight, Shape};
+    use crate::material::Material;
+    use crate::scene::Mesh;
+
+    #[test]
+    fn a_two_triangle_square_lights_like_the_same_quad_light() {
+        // The unit square at height 1 as an emissive mesh and as a two-sided quad light: the
+        // same estimate for the same sample points (the mesh splits u.x between its two
+        // triangles, so compare the means over a fine grid).
+        let mut scene = Scene::default();
+        scene.materials.push(Material { emission: Vec3::splat(2.0), ..Material::default() });
+        scene.meshes.push(Mesh {
+            positions: vec![
+                Vec3::new(-0.5, 1.0, -0.5),
+                Vec3::new(0.5, 1.0, -0.5),
+                Vec3::new(0.5, 1.0, 0.5),
+                Vec3::new(-0.5, 1.0, 0.5),
+            ],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            ..Mesh::default()
+        });
+        let [e] = &MeshEmitter::of_scene(&scene)[..] else { panic!() };
+        assert!((e.area() - 1.0).abs() < 1e-12);
+        let quad = AreaLight {
+            shape: Shape::Quad { corner: Vec3::new(-0.5, 1.0, -0.5), edge1: Vec3::X, edge2: Vec3::Z },
+            radiance: Vec3::splat(2.0),
+            two_sided: true,
+            samples: 1,
+        };
+        let mean = |f: &dyn Fn(Vec2) -> f64| {
+            let n = 200;
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    sum += f(Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32));
+                }
+            }
+            sum / (n * n) as f64
+        };
+        let e_of = |inc: Option<Incidence>| inc.map_or(0.0, |i| (i.normal_irradiance.x * i.to_light.y.max(0.0)) as f64);
+        let m = mean(&|u| e_of(e.sample(Vec3::ZERO, u)));
+        let q = mean(&|u| e_of(quad.sample(Vec3::ZERO, u)));
+        assert!((m - q).abs() < 2e-4 * q, "mesh {m} vs quad {q}");
+        // Every sample lies on the square.
+        for u in [Vec2::ZERO, Vec2::new(0.49, 0.9), Vec2::new(0.999, 0.001)] {
+            let i = e.sample(Vec3::ZERO, u).unwrap();
+            let y = i.to_light * i.distance;
+            assert!((y.y - 1.0).abs() < 1e-6 && y.x.abs() <= 0.5 + 1e-6 && y.z.abs() <= 0.5 + 1e-6, "{y}");
+        }
+    }
+}
