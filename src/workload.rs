@@ -18,9 +18,9 @@ use crate::scene::{CameraSpec, Scene, procedural};
 /// Which rays to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayKind {
-    /// One ray through each pixel centre of a square image of the lecture's pinhole
-    /// [`Camera`] (vertical fov 40°) framing the scene's bounds ([`CameraSpec::framing`]), in
-    /// 4×2-pixel tiles (the order packets like).
+    /// One ray through each pixel centre of a square image of the scene's camera as the
+    /// lecture's pinhole [`Camera`] ([`primary_camera`]; a lone mesh file's camera frames its
+    /// bounds with a vertical fov of 40°), in 4×2-pixel tiles (the order packets like).
     Primary,
     /// Rays from points uniform in 1.5× the scene's bounding box, in uniformly random
     /// directions ([`procedural::random_rays`]).
@@ -72,9 +72,11 @@ pub const DEFAULT_RAYS: usize = 1_000_000;
 /// Vertical field of view of the primary rays, degrees.
 pub const PRIMARY_FOV_DEG: f32 = 40.0;
 
-/// The camera of the primary rays: [`CameraSpec::framing`] of the scene's bounds.
+/// The camera of the primary rays: the scene's own (a lone mesh file's is
+/// [`CameraSpec::framing`] of its bounds, see [`crate::scene::from_mesh_file`]), as a pinhole
+/// (rays through pixel centres, whatever its lens), on a square image.
 pub fn primary_camera(scene: &Scene) -> CameraSpec {
-    CameraSpec::framing(scene.bounds(), PRIMARY_FOV_DEG)
+    CameraSpec { lens: crate::scene::Lens::PINHOLE, ..scene.camera }
 }
 
 /// The rays through the pixel centres of `camera` (the camera `strahl render` uses, so these
@@ -102,7 +104,7 @@ pub fn primary_side(n: usize) -> u32 {
     ((n as f64).sqrt().ceil() as u32).div_ceil(8) * 8
 }
 
-/// Primary rays framing `scene` (see [`RayKind::Primary`]), about `n` of them.
+/// Primary rays of `scene`'s camera (see [`RayKind::Primary`]), about `n` of them.
 pub fn primary(scene: &Scene, n: usize) -> Result<Vec<Ray>, TraceError> {
     let side = primary_side(n);
     Ok(camera_rays(&Camera::new(&primary_camera(scene), side, side)?))
@@ -272,7 +274,8 @@ mod tests {
         let rays = primary(&scene, 64).unwrap();
         let cam = Camera::new(&primary_camera(&scene), 8, 8).unwrap();
         assert_eq!(rays, camera_rays(&cam));
-        assert_eq!(primary_camera(&scene).target, Vec3::X);
+        // The scene's own camera, as a pinhole.
+        assert_eq!(primary_camera(&scene), scene.camera);
     }
 
     #[test]

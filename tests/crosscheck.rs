@@ -191,6 +191,22 @@ fn crosscheck_command_options_and_errors() {
     );
     let e = fails(&dir, &["crosscheck", planes.to_str().unwrap()]);
     assert!(e.ends_with("has no meshes or spheres to trace (planes are tested outside both BVHs)"), "{e}");
+    // Primary and secondary rays come from the scene's own camera: inside the Cornell box,
+    // most of them hit (a framing camera outside the box saw only its outside, and the
+    // secondary rays then compared nothing).
+    let cornell = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml");
+    let out = strahl(&["crosscheck", cornell, "--rays", "4096", "--kind", "secondary", "--threads", "2"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let both_hit = count(&text(&out.stdout), "both hit");
+    assert!(both_hit > 3000, "{}", text(&out.stdout));
+    // A camera that looks away from everything: nothing compared, which is a failure.
+    let away = dir.write(
+        "away.toml",
+        "[camera]\neye = [0, 0, 0]\ntarget = [0, 0, 1]\nfov_deg = 10\n[materials.m]\ndiffuse = 0.5\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0, 0, -5]\nradius = 1\nmaterial = \"m\"\n",
+    );
+    let e = fails(&dir, &["crosscheck", away.to_str().unwrap(), "--rays", "1000", "--kind", "primary"]);
+    assert!(e.contains("nothing was compared: primary (1024 rays)"), "{e}");
     // Usage errors: exit status 2, one line.
     for args in [["--rays", "0"], ["--kind", "shadow"]] {
         let out = strahl(&["crosscheck", lecture, args[0], args[1]]);

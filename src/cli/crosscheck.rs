@@ -27,8 +27,9 @@ pub struct CrosscheckArgs {
     /// Rays of each kind (primary rays: the nearest square image, 1000 × 1000 for a million).
     #[arg(long, value_name = "N", default_value_t = workload::DEFAULT_RAYS as u64, value_parser = clap::value_parser!(u64).range(1..=super::MAX_RAYS))]
     rays: u64,
-    /// Which rays: primary (a camera framing the scene), random (uniform origins and
-    /// directions), secondary (mirror reflections at the primary hits), or all three.
+    /// Which rays: primary (the scene's camera; a lone mesh file's frames it), random
+    /// (uniform origins and directions), secondary (mirror reflections at the primary hits),
+    /// or all three. A kind of which no ray hits anything in either backend fails the check.
     #[arg(long, value_enum, default_value_t = CrosscheckKind::All)]
     kind: CrosscheckKind,
     /// Worker threads for tracing and for both BVH builds [default: one per core].
@@ -105,8 +106,21 @@ fn example(report: &Report, d: &Disagreement) -> String {
     )
 }
 
-/// Fails when any disagreement is unexplained, saying how many and of which kinds.
+/// Fails when any disagreement is unexplained, saying how many and of which kinds, or when a
+/// kind compared nothing (no ray hit anything in either backend).
 fn verdict(reports: &[(RayKind, Report)]) -> anyhow::Result<()> {
+    let vacuous: Vec<String> = reports
+        .iter()
+        .filter(|(_, r)| r.both_hit + r.hit_miss() == 0)
+        .map(|(kind, r)| format!("{kind} ({} rays)", r.rays))
+        .collect();
+    if !vacuous.is_empty() {
+        bail!(
+            "no ray hit anything in either backend, so nothing was compared: {} (does the scene's camera see \
+             the geometry?)",
+            vacuous.join(", ")
+        );
+    }
     let bad: Vec<String> = reports
         .iter()
         .filter(|(_, r)| r.unexplained > 0)
@@ -154,7 +168,7 @@ mod tests {
         let text = describe(&report);
         assert!(text.contains(&format!("unexplained         {:>10}", report.unexplained)), "{text}");
         assert_eq!(text.matches("ε·M from an edge").count(), EXAMPLES + 1, "{text}");
-        let error = verdict(&[(RayKind::Primary, Report::default()), (RayKind::Random, report.clone())]).unwrap_err();
+        let error = verdict(&[(RayKind::Random, report.clone())]).unwrap_err();
         assert_eq!(
             error.to_string(),
             format!(
@@ -167,5 +181,11 @@ mod tests {
         let report = crosscheck::compare(&seen, &embree, &native, &rays).unwrap();
         assert_eq!(report.unexplained, 0, "{report}");
         verdict(&[(RayKind::Primary, report)]).unwrap();
+        // Rays that all miss in both backends compared nothing: a failure, not a pass.
+        let vacuous = Report { rays: 10, both_miss: 10, ..Report::default() };
+        let error = verdict(&[(RayKind::Secondary, vacuous)]).unwrap_err().to_string();
+        assert!(
+            error.starts_with("no ray hit anything in either backend, so nothing was compared: secondary (10 rays)")
+        );
     }
 }
