@@ -274,6 +274,30 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
         assert_eq!(std::fs::read_to_string(f).unwrap(), text, "{f:?} changed");
     }
     assert_eq!(std::fs::read_to_string(&mesh).unwrap(), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+
+    // The files a mesh names are inputs too: its MTL library and the library's texture.
+    let textured = dir.write("t.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\nf 1/1 2/1 3/1\n");
+    let mtl = dir.write("t.mtl", "newmtl a\nKd 1 1 1\nmap_Kd tex.png\n");
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50])).save(dir.path("tex.png")).unwrap();
+    let texture = std::fs::read(dir.path("tex.png")).unwrap();
+    let scene = dir.write("textured.toml", text.replace("m.obj", "t.obj"));
+    std::fs::hard_link(&mtl, dir.path("mtl.exr")).unwrap();
+    for (args, input) in [
+        (vec![s(&scene), "-o".into(), s(&dir.path("mtl.exr"))], mtl.clone()),
+        (
+            vec![s(&scene), "-o".into(), s(&dir.path("out.exr")), "--png".into(), s(&dir.path("tex.png"))],
+            dir.path("tex.png"),
+        ),
+    ] {
+        let mut all = vec!["render"];
+        all.extend(args.iter().map(String::as_str));
+        let e = common::fails(&dir, &all);
+        assert!(e.contains(&format!("is an input ({})", input.display())), "{all:?}: {e}");
+    }
+    assert_eq!(std::fs::read(dir.path("tex.png")).unwrap(), texture);
+    assert_eq!(std::fs::read_to_string(&mtl).unwrap(), "newmtl a\nKd 1 1 1\nmap_Kd tex.png\n");
+    assert!(!dir.path("out.exr").exists());
+    let _ = textured;
 }
 
 #[test]
@@ -467,4 +491,20 @@ fn a_million_corner_polygon_loads_as_a_fan() {
             n + 1
         )
     );
+}
+
+#[test]
+fn a_texture_that_is_a_fifo_or_a_device_is_refused_at_its_map_kd_line() {
+    let dir = TempDir::new("texture-special");
+    mkfifo(&dir.path("fifo.png"));
+    dir.write("t.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\nf 1/1 2/1 3/1\n");
+    for (texture, kind) in [("fifo.png", "a FIFO"), ("/dev/zero", "a character device")] {
+        dir.write("t.mtl", format!("newmtl a\nKd 1 1 1\nmap_Kd {texture}\n"));
+        let scene = dir.write(
+            "s.toml",
+            "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_deg = 40\n[[objects]]\ntype = \"mesh\"\npath = \"t.obj\"\n",
+        );
+        let e = refused_quickly(&dir, &scene);
+        assert!(e.contains("t.mtl:3: map_Kd: ") && e.contains(&format!("not a regular file ({kind})")), "{e}");
+    }
 }

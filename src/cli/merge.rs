@@ -2,11 +2,12 @@
 //! or `--tile I/N`) into the whole image, written atomically ([`strahl::merge`] states the
 //! rules: one scene and settings, no overlap, a complete cover).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::bail;
 use clap::Args;
 use strahl::io::atomic::write_atomically;
+use strahl::io::same_file::same_file;
 
 /// Arguments of `strahl merge`.
 #[derive(Args, Debug)]
@@ -37,12 +38,4 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     write_atomically(out, &bytes)?;
     println!("merged {} parts into {} ({:.1} MB)", args.parts.len(), out.display(), bytes.len() as f64 / 1e6);
     Ok(())
-}
-
-/// True when `a` and `b` name the same file (or the same path, when `b` does not exist yet).
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(x), Ok(y)) => x == y,
-        _ => a == b,
-    }
 }

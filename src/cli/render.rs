@@ -153,13 +153,14 @@ fn check_output(path: &Path, extension: &str, what: &str) -> anyhow::Result<()> 
     Ok(())
 }
 
-/// Refuses, before rendering, an output (EXR, PNG, checkpoint) that is the scene file or a
-/// mesh file it names, through any link or spelling (`strahl::io::same_file`).
-fn refuse_inputs_as_outputs(args: &RenderArgs, loaded: &strahl::scene::Loaded) -> anyhow::Result<()> {
+/// Refuses, before rendering, an output (EXR, PNG, checkpoint) that is any file the scene was
+/// read from (the scene, its meshes, MTL libraries, textures, glTF buffers and images:
+/// [`strahl::io::read::inputs_read`]), through any link or spelling (`strahl::io::same_file`).
+fn refuse_inputs_as_outputs(args: &RenderArgs) -> anyhow::Result<()> {
     let checkpoint = checkpoint::path_for(&args.output);
     let outputs = [Some(&args.output), args.png.as_ref(), Some(&checkpoint)];
-    let inputs = std::iter::once(&args.scene).chain(loaded.objects.iter().filter_map(|o| o.file.as_ref()));
-    for input in inputs {
+    let read = strahl::io::read::inputs_read();
+    for input in std::iter::once(&args.scene).chain(&read) {
         for output in outputs.iter().flatten() {
             if same_file(input, output) {
                 bail!("{}: is an input ({}); writing there would destroy it", output.display(), input.display());
@@ -189,7 +190,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
 
     let loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
-    refuse_inputs_as_outputs(&args, &loaded)?;
+    refuse_inputs_as_outputs(&args)?;
     let mut scene = loaded.scene;
     let image = &mut scene.image;
     image.width = args.width.unwrap_or(image.width);

@@ -211,7 +211,9 @@ fn read_uri(uri: &str, base: &Path, files: &mut Vec<PathBuf>) -> Result<Vec<u8>,
     if !file.is_file() {
         return Err(format!("{}: no such file", file.display()));
     }
-    let data = std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let limit = super::read::max_mesh_bytes().map_err(|e| format!("{}: {e}", file.display()))?;
+    let data = super::read::read_regular(&file, limit, super::read::MESH_LIMIT_HINT)
+        .map_err(|e| format!("{}: {e}", file.display()))?;
     files.push(file);
     Ok(data)
 }

@@ -649,7 +649,8 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
                 // Files written on Windows name textures with backslashes (`.\\wood.jpg`).
                 let name = String::from_utf8_lossy(rest_of(line, keyword)).replace('\\', "/");
                 let file = path.parent().unwrap_or(Path::new("")).join(&name);
-                if file.is_file() {
+                // A path that exists but is no regular file (a FIFO, /dev/zero) is an error there.
+                if file.exists() {
                     block.map_kd = Some(crate::texture::open_shared(&file).map_err(|e| at(format!("map_Kd: {e}")))?);
                 } else {
                     // Meshes are often passed on without their textures (as Blender and assimp

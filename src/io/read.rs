@@ -17,12 +17,34 @@
 //!   4 GiB costs at most 64 MB and a fraction of a second. The `16 ×` allowance covers the
 //!   multi-member files (`bgzip`) whose last member's ISIZE does not describe the whole.
 //!
+//! - **Every file read is remembered** ([`inputs_read`]): scenes, meshes, MTL libraries,
+//!   textures and glTF buffers all come through [`read_regular`] (or [`note_input`]), so that
+//!   `strahl render` can refuse an output path that is any of them.
+//!
 //! Hand-written over `std::fs` and `flate2` because the rules are strahl's own; the
 //! decompression itself is `flate2`'s.
 
 use std::fs::File;
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// The files read as input so far in this process, in the order they were first read.
+static INPUTS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Remembers `path` as an input of this process (see [`inputs_read`]).
+pub fn note_input(path: &Path) {
+    let mut inputs = INPUTS.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    if !inputs.iter().any(|p| p == path) {
+        inputs.push(path.to_path_buf());
+    }
+}
+
+/// Every file this process has read as input (scene, meshes, MTL libraries, textures, glTF
+/// buffers and images), as the paths it opened them by.
+pub fn inputs_read() -> Vec<PathBuf> {
+    INPUTS.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).clone()
+}
 
 /// Largest scene file read, in bytes (32 MiB): far beyond any hand-written TOML, and bounding
 /// the parse's memory. The TOML document is built whole before strahl sees a value, at about
@@ -111,6 +133,7 @@ pub fn read_regular(path: &Path, limit_bytes: u64, hint: &'static str) -> Result
         return Err(ReadError::TooLarge { size_bytes: meta.len(), limit_bytes, hint });
     }
     let file = File::open(path).map_err(ReadError::Io)?;
+    note_input(path);
     // The path may have been replaced between the stat and the open: check what was opened.
     let meta = file.metadata().map_err(ReadError::Io)?;
     if !meta.is_file() {
