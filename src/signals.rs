@@ -65,13 +65,12 @@ pub fn track(path: &Path) {
     TEMPORARIES.lock().unwrap_or_else(|p| p.into_inner()).push(path.to_path_buf());
 }
 
-/// Runs `finish` (a rename or a removal of `path`) and forgets `path`, with the registry
-/// locked, so a signal cannot interrupt in between.
-pub fn untrack<T>(path: &Path, finish: impl FnOnce() -> T) -> T {
+/// Runs `finish` (renames or removals of `paths`) and forgets `paths`, with the registry
+/// locked, so a signal cannot interrupt in between (a signal that arrives meanwhile is handled
+/// once `finish` is done: two outputs renamed in one `finish` are both renamed, or neither).
+pub fn untrack<T>(paths: &[&Path], finish: impl FnOnce() -> T) -> T {
     let mut temporaries = TEMPORARIES.lock().unwrap_or_else(|p| p.into_inner());
     let result = finish();
-    if let Some(i) = temporaries.iter().position(|p| p == path) {
-        temporaries.swap_remove(i);
-    }
+    temporaries.retain(|p| !paths.contains(&p.as_path()));
     result
 }

@@ -6,7 +6,7 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use common::TempDir;
+use common::{TempDir, strahl, text};
 
 fn scene() -> String {
     format!("{}/scenes/spheres.toml", env!("CARGO_MANIFEST_DIR"))
@@ -43,4 +43,33 @@ fn a_250_byte_output_name_is_written() {
     let (w, h, channels) = common::read_exr(&out);
     assert_eq!((w, h), (8, 6));
     assert!(channels.iter().any(|(n, _)| n.ends_with('R')));
+}
+
+/// The EXR and its PNG are written whole to temporaries and renamed together: when the PNG
+/// cannot be written, the EXR is not replaced either, and no temporary is left.
+#[test]
+fn a_failing_png_leaves_the_previous_exr_and_no_temporary() {
+    let dir = TempDir::new("png-fails");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/lecture.toml");
+    let exr = dir.path("out.exr");
+    let small = ["--width", "16", "--height", "12"];
+    let first = strahl(&[&["render", scene, "-o", exr.to_str().unwrap()][..], &small].concat());
+    assert!(first.status.success(), "{}", text(&first.stderr));
+    let before = std::fs::read(&exr).unwrap();
+    // A PNG that cannot be created (/proc takes no new files, even from root: this fails after
+    // the render, with the EXR already in its temporary), and one whose place is taken by a
+    // directory (refused before rendering).
+    std::fs::create_dir(dir.path("taken.png")).unwrap();
+    std::fs::write(dir.path("taken.png/x"), "x").unwrap();
+    for png in ["/proc/strahl-test.png".to_string(), dir.path("taken.png").display().to_string()] {
+        let out = strahl(
+            &[&["render", scene, "-o", exr.to_str().unwrap(), "--png", &png, "--spp", "2"][..], &small].concat(),
+        );
+        assert_eq!(out.status.code(), Some(1), "{png}: {}", text(&out.stderr));
+        assert!(text(&out.stderr).contains(&format!("error: {png}: ")), "{}", text(&out.stderr));
+        assert_eq!(std::fs::read(&exr).unwrap(), before, "{png}: the EXR was replaced");
+        let mut left = dir.entries();
+        left.sort();
+        assert_eq!(left, ["out.exr", "taken.png"], "{png}");
+    }
 }

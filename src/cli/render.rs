@@ -267,12 +267,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         material_names: scene.materials.iter().map(|m| m.name.clone()).collect(),
     };
     let write_start = Instant::now();
+    // Both files whole in their temporaries first, then renamed together: a failure writing
+    // either leaves neither (strahl::io::atomic).
     eprintln!("writing {} ...", args.output.display());
-    strahl::io::exr::write(&film, &options, &args.output, threads)?;
+    let mut staged = vec![strahl::io::exr::stage(&film, &options, &args.output, threads)?];
     if let Some(png) = &args.png {
         eprintln!("writing {} ...", png.display());
-        strahl::io::png::write(&film, args.exposure, png)?;
+        staged.push(strahl::io::png::stage(&film, args.exposure, png)?);
     }
+    strahl::io::atomic::commit_all(staged)?;
     // The output is whole: the checkpoint has served.
     if checkpointing.path.exists() {
         std::fs::remove_file(&checkpointing.path).with_context(|| {

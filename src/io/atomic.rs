@@ -2,6 +2,13 @@
 //! destination's directory, which is then renamed over the destination (atomic on one file
 //! system). On any error the temporary file is removed and the destination is untouched.
 //!
+//! Several files that belong together (an EXR and its PNG preview) are first written whole to
+//! their temporaries ([`stage_with`]) and then renamed one after the other in [`commit_all`],
+//! with the signal registry locked: an error while writing either leaves neither, and a
+//! SIGINT/SIGTERM waits until both are renamed. Only a rename failing in between (both
+//! temporaries already written in full, in the destinations' own folders) or SIGKILL at that
+//! instant can leave one new file beside one old one.
+//!
 //! The temporary name is short, `.strahl-PID-N.tmp`, so that any legal output name works (a
 //! name derived from the output's would exceed the 255-byte limit for long ones). While it
 //! exists it is registered with [`crate::signals`], which removes it if SIGINT or SIGTERM ends
@@ -46,6 +53,39 @@ pub fn write_atomically_with(
     path: &Path,
     write: impl FnOnce(&mut io::BufWriter<fs::File>) -> io::Result<()>,
 ) -> Result<(), WriteError> {
+    commit_all(vec![stage_with(path, write)?])
+}
+
+/// A file written whole to its temporary and synced, not yet renamed over its destination
+/// ([`commit_all`]). Dropped uncommitted, its temporary is removed.
+#[must_use = "a staged file is written only when committed"]
+#[derive(Debug)]
+pub struct Staged {
+    tmp: PathBuf,
+    path: PathBuf,
+    /// Renamed, or removed: nothing left for the drop to do.
+    done: bool,
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.done {
+            crate::signals::untrack(&[&self.tmp], || fs::remove_file(&self.tmp)).ok();
+        }
+    }
+}
+
+/// Writes `bytes` to the temporary file of `path` (see [`stage_with`]).
+pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged, WriteError> {
+    stage_with(path, |file| file.write_all(bytes))
+}
+
+/// Writes the temporary file of `path` with `write` and syncs it, leaving `path` untouched
+/// until [`commit_all`]. On any error the temporary is removed.
+pub fn stage_with(
+    path: &Path,
+    write: impl FnOnce(&mut io::BufWriter<fs::File>) -> io::Result<()>,
+) -> Result<Staged, WriteError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let dir = directory_of(path);
     if path.file_name().is_none() {
@@ -67,6 +107,7 @@ pub fn write_atomically_with(
             Err(e) => return Err(WriteError::new(path, format!("cannot create a file in {}: {e}", dir.display()))),
         }
     };
+    let staged = Staged { tmp, path: path.to_path_buf(), done: false };
     if let Some(ms) = std::env::var("STRAHL_TEST_WRITE_DELAY_MS").ok().and_then(|v| v.parse().ok()) {
         std::thread::sleep(std::time::Duration::from_millis(ms));
     }
@@ -74,14 +115,42 @@ pub fn write_atomically_with(
         let mut buffered = io::BufWriter::with_capacity(1 << 20, file);
         write(&mut buffered)?;
         let file = buffered.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        drop(file);
-        crate::signals::untrack(&tmp, || fs::rename(&tmp, path))
+        file.sync_all()
     })();
-    result.map_err(|e| {
-        crate::signals::untrack(&tmp, || fs::remove_file(&tmp)).ok();
-        WriteError::new(path, format!("cannot write: {e}"))
-    })
+    // On error `staged` is dropped, removing the temporary.
+    result.map(|()| staged).map_err(|e| WriteError::new(path, format!("cannot write: {e}")))
+}
+
+/// Renames every staged file over its destination, in order, with the signal registry locked
+/// (see the module docs). A failed rename removes the temporaries not yet renamed.
+pub fn commit_all(mut files: Vec<Staged>) -> Result<(), WriteError> {
+    let tmps: Vec<PathBuf> = files.iter().map(|f| f.tmp.clone()).collect();
+    let tmp_refs: Vec<&Path> = tmps.iter().map(PathBuf::as_path).collect();
+    crate::signals::untrack(&tmp_refs, || {
+        // A directory in a destination's place would fail its rename after the others: refuse
+        // it before renaming any.
+        if let Some(f) = files.iter().find(|f| f.path.is_dir()) {
+            let path = f.path.clone();
+            for f in &mut files {
+                fs::remove_file(&f.tmp).ok();
+                f.done = true;
+            }
+            return Err(WriteError::new(&path, "cannot write: is a directory"));
+        }
+        for i in 0..files.len() {
+            if let Err(e) = fs::rename(&files[i].tmp, &files[i].path) {
+                // This one and the rest are removed here, still under the lock.
+                for rest in &mut files[i..] {
+                    fs::remove_file(&rest.tmp).ok();
+                    rest.done = true;
+                }
+                return Err(WriteError::new(&files[i].path, format!("cannot write: {e}")));
+            }
+            files[i].done = true;
+        }
+        Ok(())
+    })?;
+    Ok(())
 }
 
 #[cfg(test)]
@@ -119,6 +188,27 @@ mod tests {
         write_atomically(&path, b"second").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"second");
         assert_eq!(entries(&dir.0), ["a.bin"]);
+    }
+
+    #[test]
+    fn staged_files_are_renamed_together_or_not_at_all() {
+        let dir = TempDir::new("staged");
+        let (a, b) = (dir.0.join("a.exr"), dir.0.join("b.png"));
+        fs::write(&a, b"old a").unwrap();
+        // b's place is taken by a non-empty directory: a is not replaced either.
+        fs::create_dir(&b).unwrap();
+        fs::write(b.join("x"), b"x").unwrap();
+        let staged = vec![stage(&a, b"new a").unwrap(), stage(&b, b"new b").unwrap()];
+        assert!(commit_all(staged).unwrap_err().to_string().contains("b.png: cannot write: is a directory"));
+        assert_eq!(fs::read(&a).unwrap(), b"old a");
+        // A staged file dropped uncommitted leaves nothing.
+        drop(stage(&dir.0.join("c.exr"), b"c").unwrap());
+        let mut left = entries(&dir.0);
+        left.sort();
+        assert_eq!(left, ["a.exr", "b.png"]);
+        fs::remove_dir_all(&b).unwrap();
+        commit_all(vec![stage(&a, b"new a").unwrap(), stage(&b, b"new b").unwrap()]).unwrap();
+        assert_eq!((fs::read(&a).unwrap(), fs::read(&b).unwrap()), (b"new a".to_vec(), b"new b".to_vec()));
     }
 
     #[test]

@@ -59,7 +59,7 @@ use exr::meta::attribute::{AttributeValue, ChannelDescription, IntegerBounds, Sa
 use exr::meta::header::Header;
 use exr::prelude::{LineOrder, Vec2, f16};
 
-use super::atomic::{WriteError, write_atomically_with};
+use super::atomic::{Staged, WriteError, commit_all, stage_with};
 use crate::film::{ChannelView, Film};
 use crate::passes::Pass;
 
@@ -435,8 +435,19 @@ fn header_attribute_spans(bytes: &[u8]) -> Option<Vec<std::ops::Range<usize>>> {
 /// blocks go to the file as they are compressed (the file is never whole in memory); the
 /// header's attributes are then sorted in place.
 pub fn write(film: &Film, options: &ExrOptions, path: &Path, threads: usize) -> std::result::Result<(), WriteError> {
+    commit_all(vec![stage(film, options, path, threads)?])
+}
+
+/// [`write`] up to the temporary file, to be renamed with [`commit_all`] (with its PNG
+/// preview, say).
+pub fn stage(
+    film: &Film,
+    options: &ExrOptions,
+    path: &Path,
+    threads: usize,
+) -> std::result::Result<Staged, WriteError> {
     let mut encode_error = None;
-    let written = write_atomically_with(path, |file| {
+    let written = stage_with(path, |file| {
         if let Err(e) = encode_to(film, options, threads, &mut *file) {
             let problem = format!("cannot encode OpenEXR: {e}");
             encode_error = Some(problem.clone());

@@ -7,7 +7,7 @@ use std::path::Path;
 use image::ImageEncoder;
 use image::codecs::png::PngEncoder;
 
-use super::atomic::{WriteError, write_atomically};
+use super::atomic::{self, Staged, WriteError, commit_all};
 use crate::film::Film;
 
 /// The sRGB transfer curve ("gamma") of a linear value in [0, 1].
@@ -38,11 +38,17 @@ pub fn encode(film: &Film, exposure_ev: f32) -> Result<Vec<u8>, image::ImageErro
 
 /// Writes the preview of `film` to `path`, atomically.
 pub fn write(film: &Film, exposure_ev: f32, path: &Path) -> Result<(), WriteError> {
+    commit_all(vec![stage(film, exposure_ev, path)?])
+}
+
+/// [`write`] up to the temporary file, to be renamed with [`commit_all`] (with the EXR it
+/// previews, say).
+pub fn stage(film: &Film, exposure_ev: f32, path: &Path) -> Result<Staged, WriteError> {
     if !exposure_ev.is_finite() {
         return Err(WriteError::new(path, format!("exposure {exposure_ev} is not a finite number of stops")));
     }
     let bytes = encode(film, exposure_ev).map_err(|e| WriteError::new(path, format!("cannot encode PNG: {e}")))?;
-    write_atomically(path, &bytes)
+    atomic::stage(path, &bytes)
 }
 
 #[cfg(test)]
