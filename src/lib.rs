@@ -20,6 +20,7 @@ pub mod io;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod memory;
 pub mod merge;
 pub mod optics;
 pub mod passes;

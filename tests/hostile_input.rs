@@ -508,3 +508,64 @@ fn a_texture_that_is_a_fifo_or_a_device_is_refused_at_its_map_kd_line() {
         assert!(e.contains("t.mtl:3: map_Kd: ") && e.contains(&format!("not a regular file ({kind})")), "{e}");
     }
 }
+
+/// The memory budget: `strahl info` prints the estimate, a render over `--max-memory` is
+/// refused before anything is built or written, and the estimate covers what a render really
+/// takes (peak RSS read by /usr/bin/time, when there is one) without overstating it wildly.
+#[test]
+fn the_memory_estimate_bounds_the_render_and_max_memory_refuses_beyond_it() {
+    let dir = TempDir::new("budget");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/lecture.toml");
+    let estimate_mb = |width: u32, height: u32| -> f64 {
+        let text = scene_text_sized(width, height);
+        let file = dir.write(&format!("lecture-{width}.toml"), text);
+        let out = common::strahl(&["info", file.to_str().unwrap()]);
+        let stdout = common::text(&out.stdout);
+        let line = stdout.lines().find(|l| l.starts_with("memory estimate: ")).unwrap_or_else(|| panic!("{stdout}"));
+        line["memory estimate: ".len()..].split(' ').next().unwrap().parse().unwrap()
+    };
+    let big = estimate_mb(4000, 3000);
+    // 12 M pixels × 44 bytes of film (528 MB), a quarter of it and 17 MB for the output, 42 MB
+    // of base.
+    assert!((715.0..725.0).contains(&big), "{big} MB");
+    let out = dir.path("big.exr");
+    let r = run(
+        &dir,
+        &["render", scene, "--width", "4000", "--height", "3000", "--max-memory", "600M", "-o", out.to_str().unwrap()],
+    );
+    assert_eq!(r.status, Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("this render needs about ") && r.stderr.contains("more than --max-memory 630 MB"),
+        "{}",
+        r.stderr
+    );
+    assert!(r.seconds < 1.0 && !out.exists());
+    assert_eq!(dir.entries().iter().filter(|e| e.ends_with(".tmp")).count(), 0);
+
+    // A real render stays under its estimate.
+    let small = dir.path("small.exr");
+    let r = run(&dir, &["render", scene, "--width", "1600", "--height", "1200", "-o", small.to_str().unwrap()]);
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    if let Some(mib) = r.max_rss_mib {
+        let estimate = estimate_mb(1600, 1200);
+        let measured = mib * 1.048576;
+        assert!(
+            measured <= estimate && estimate <= 3.0 * measured,
+            "measured {measured:.0} MB, estimate {estimate} MB"
+        );
+    }
+}
+
+/// scenes/lecture.toml at another size.
+fn scene_text_sized(width: u32, height: u32) -> String {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/lecture.toml")).unwrap();
+    let (before, after) = text.split_once("[image]\n").unwrap();
+    format!(
+        "{before}[image]\nwidth = {width}\nheight = {height}\n{}",
+        after
+            .lines()
+            .filter(|l| !l.starts_with("width") && !l.starts_with("height"))
+            .map(|l| format!("{l}\n"))
+            .collect::<String>()
+    )
+}

@@ -1,6 +1,6 @@
 //! `strahl info SCENE` through the binary: one line per object (name, type, mesh file, count,
-//! materials) and per total, the bounding box, the degenerate triangles dropped and the load
-//! time, in a fixed order; warnings on stderr; errors as one line with exit status 1.
+//! materials) and per total, the bounding box, the degenerate triangles dropped, the memory
+//! estimate and the load time, in a fixed order; warnings on stderr; errors as one line with exit status 1.
 
 mod common;
 
@@ -8,8 +8,9 @@ use std::path::Path;
 
 use common::{TempDir, data_dir, fails, strahl, text};
 
-/// The lines `strahl info` prints for `scene` (which must succeed), without the load time,
-/// which it checks is a number of milliseconds; and its stderr.
+/// The lines `strahl info` prints for `scene` (which must succeed), without the memory
+/// estimate and the load time, which it checks are a sum of megabytes and a number of
+/// milliseconds; and its stderr.
 fn info(scene: &Path) -> (Vec<String>, String) {
     let out = strahl(&["info", scene.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
@@ -17,6 +18,14 @@ fn info(scene: &Path) -> (Vec<String>, String) {
     let last = lines.pop().unwrap();
     let ms = last.strip_prefix("load time: ").and_then(|l| l.strip_suffix(" ms")).expect("the load time comes last");
     assert!(ms.parse::<f64>().is_ok_and(|ms| ms >= 0.0), "{last}");
+    let memory = lines.pop().unwrap();
+    let parts = memory.strip_prefix("memory estimate: ").expect("the memory estimate before it");
+    let mb = |s: &str| s.trim_end_matches(',').parse::<u64>().unwrap();
+    let words: Vec<&str> = parts.split([' ', '(', ')']).filter(|w| !w.is_empty()).collect();
+    let total = mb(words[0]);
+    let sum: u64 = words.windows(2).filter(|w| w[1].starts_with("MB")).skip(1).map(|w| mb(w[0])).sum();
+    // Each part is rounded up to whole MB, so the total lies within their count of the sum.
+    assert!(total <= sum && sum <= total + 6, "{memory}");
     (lines, text(&out.stderr))
 }
 

@@ -54,10 +54,19 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
     lines.extend([
         format!("spheres: {}", scene.spheres.len()),
         format!("planes: {}", scene.planes.len()),
-        format!("lights: {}", scene.lights.len()),
+        match scene.area_lights.len() {
+            0 => format!("lights: {}", scene.lights.len()),
+            n => format!("lights: {} ({n} with an area)", scene.lights.len() + n),
+        },
         format!("materials: {}", scene.materials.len()),
         format!("bounds: {bounds}"),
         format!("degenerate triangles dropped: {dropped}"),
+        format!(
+            "memory estimate: {} at {} × {} (strahl render refuses more than --max-memory)",
+            strahl::memory::estimate(scene, scene.image.width as u64 * scene.image.height as u64),
+            scene.image.width,
+            scene.image.height
+        ),
         format!("load time: {:.1} ms", load_seconds * 1e3),
     ]);
     lines.iter().map(|l| format!("{l}\n")).collect()

@@ -51,6 +51,10 @@ pub struct RenderArgs {
     /// Also write an 8-bit sRGB PNG preview here.
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
+    /// Refuse, before building anything, a render whose estimated memory (as `strahl info`
+    /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: 3/4 of physical memory].
+    #[arg(long, value_name = "SIZE", value_parser = strahl::memory::parse_size)]
+    max_memory: Option<u64>,
     /// Image width in pixels (overrides the scene's).
     #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
@@ -170,6 +174,25 @@ fn refuse_inputs_as_outputs(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuses a render whose estimated memory ([`strahl::memory::estimate`]) is over
+/// `--max-memory` (default 3/4 of the machine's memory), saying what it needs and what to do.
+fn refuse_over_budget(args: &RenderArgs, scene: &Scene, region: Region) -> anyhow::Result<()> {
+    use strahl::memory::{default_limit, estimate, megabytes};
+    let Some(limit) = args.max_memory.or_else(default_limit) else { return Ok(()) };
+    let needs = estimate(scene, region.pixel_count());
+    if needs.total() > limit {
+        let whose = if args.max_memory.is_some() { "" } else { " (3/4 of this machine's memory)" };
+        bail!(
+            "{}: this render needs about {needs}, more than --max-memory {}{whose}: render a smaller image \
+             (--width/--height), fewer passes (--passes), parts of it (--region or --tile, then strahl merge), \
+             or raise --max-memory",
+            args.scene.display(),
+            megabytes(limit)
+        );
+    }
+    Ok(())
+}
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     check_output(&args.output, "exr", "OpenEXR output (-o)")?;
     if let Some(png) = &args.png {
@@ -218,6 +241,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     scene.output.transparent |= args.transparent;
     scene.output.crypto_levels = args.cryptomatte_levels.unwrap_or(scene.output.crypto_levels);
+
+    refuse_over_budget(&args, &scene, region)?;
 
     if !(args.checkpoint_every.is_finite() && args.checkpoint_every >= 0.0) {
         bail!("--checkpoint-every {} is not a number of seconds (0 or more)", args.checkpoint_every);
