@@ -389,6 +389,22 @@ fn bad_files_are_refused_naming_the_element() {
     let e = refuse(&dir, "syntax.gltf", br#"{"asset":{"version":"2.0"}, "nodes": [ }"#);
     assert!(e.contains("not valid glTF JSON"), "{e}");
 
+    // A POSITION accessor that does not exist (found by `make fuzz`: the gltf crate's own
+    // validation indexed it and panicked), as glTF JSON and inside a GLB.
+    let json = br#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}"#;
+    let e = refuse(&dir, "position.gltf", json);
+    assert!(e.ends_with("mesh 0 primitive 0: POSITION names accessor 0, but the file has 0"), "{e}");
+    let mut glb = b"glTF".to_vec();
+    let padded = json.len().div_ceil(4) * 4;
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(((12 + 8 + padded) as u32).to_le_bytes());
+    glb.extend((padded as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(json);
+    glb.resize(12 + 8 + padded, b' ');
+    let e = refuse(&dir, "position.glb", &glb);
+    assert!(e.ends_with("POSITION names accessor 0, but the file has 0"), "{e}");
+
     // A buffer shorter than an accessor claims.
     let mut g = Gltf::default();
     g.mesh(&TRIANGLE, None, "");

@@ -102,10 +102,46 @@ const MAX_NODE_DEPTH: usize = 1024;
 /// Reads the glTF or GLB file at `path`. Image files are shared with every other material
 /// naming them ([`open_shared`]); images embedded in the file are decoded once per file.
 pub fn load_gltf(path: &Path) -> Result<GltfFile, MeshError> {
-    let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
     let io = |problem| MeshError::Io { path: path.to_owned(), problem };
     let cap = super::read::max_mesh_bytes().map_err(io)?;
     let bytes = super::read::read_regular(path, cap, super::read::MESH_LIMIT_HINT).map_err(io)?;
+    parse_gltf(path, bytes)
+}
+
+/// gltf-json 1.4's validation indexes the accessors with a primitive's POSITION index before
+/// checking it (its `mesh.rs`, `primitive_validate_hook`) and panics on one out of range, which
+/// the fuzz target `gltf` found: check those indices first. A file whose JSON does not parse is
+/// left to the real parse, which reports it.
+fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
+    use gltf::json::mesh::Semantic;
+    use gltf::json::validation::Checked;
+    let glb;
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        let Ok(parsed) = gltf::Glb::from_slice(bytes) else { return Ok(()) };
+        glb = parsed;
+        &glb.json
+    } else {
+        bytes
+    };
+    let Ok(root) = gltf::json::Root::from_slice(json) else { return Ok(()) };
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&Checked::Valid(Semantic::Positions));
+            if let Some(i) = position.map(|i| i.value()).filter(|&i| i >= root.accessors.len()) {
+                let n = root.accessors.len();
+                return Err(format!("mesh {m} primitive {p}: POSITION names accessor {i}, but the file has {n}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`load_gltf`] of a file's `bytes` (external buffers and images are read relative to
+/// `path`'s folder): what the fuzz target `gltf` calls. The bytes are dropped once parsed (a
+/// GLB's binary chunk is copied out of them), before the meshes are built.
+pub fn parse_gltf(path: &Path, bytes: Vec<u8>) -> Result<GltfFile, MeshError> {
+    let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
+    check_position_accessors(&bytes).map_err(err)?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(gltf_error(&e)))?;
     drop(bytes);
     let base = path.parent().unwrap_or(Path::new(""));

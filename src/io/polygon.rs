@@ -194,6 +194,9 @@ fn ear_clip(points: &[[f64; 2]], out: &mut Vec<[u32; 3]>) -> bool {
     if points.len() <= CROSSING_CHECK_MAX && crossing(points).is_some() {
         return false;
     }
+    if visits_a_point_thrice(points) {
+        return false;
+    }
     let flat: Vec<f64> = points.iter().flat_map(|p| *p).collect();
     let enclosed = shoelace(points).abs() / 2.0;
     let Ok(ears) = earcutr::earcut(&flat, &[], 2) else {
@@ -223,6 +226,16 @@ fn ear_clip(points: &[[f64; 2]], out: &mut Vec<[u32; 3]>) -> bool {
         return false;
     }
     true
+}
+
+/// Whether some point is a corner three times or more: the outline runs through it again and
+/// again (assimp's box_longline.obj goes round one square 117 times), which no simple polygon
+/// does (a keyhole touches itself at two corners) and on which earcut's degenerate-case passes
+/// take cubic time (that file: 2.3 s for 470 corners; found by `make fuzz`).
+fn visits_a_point_thrice(points: &[[f64; 2]]) -> bool {
+    let mut keys: Vec<[u64; 2]> = points.iter().map(|p| [p[0].to_bits(), p[1].to_bits()]).collect();
+    keys.sort_unstable();
+    keys.windows(3).any(|w| w[0] == w[2])
 }
 
 /// The fan `(0, i, i + 1)` over all corners, appended to `out`.
@@ -323,6 +336,36 @@ mod tests {
                 assert!((b - a).cross(d - a).dot(n) > 0.0, "winding kept");
             }
         }
+    }
+
+    #[test]
+    fn an_outline_through_one_point_thrice_is_not_ear_clipped() {
+        // The unit square traversed 117 times (box_longline.obj's face): a fan, found by the
+        // multiplicity check before earcut (which took 2.3 s on it).
+        let square = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let c: Vec<Vec3> = square.iter().copied().cycle().take(4 * 117 + 2).collect();
+        let mut out = vec![];
+        assert_eq!(triangulate(&c, &mut out), Triangulated::Fan);
+        assert_eq!(out.len(), c.len() - 2);
+        // A keyhole (a square with a square hole, bridged) touches itself at two corners only:
+        // still ear clipped, covering the ring's area 16 − 4 = 12.
+        let p = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        let keyhole = [
+            p(0.0, 0.0),
+            p(4.0, 0.0),
+            p(4.0, 4.0),
+            p(0.0, 4.0),
+            p(0.0, 0.0),
+            p(1.0, 1.0),
+            p(1.0, 3.0),
+            p(3.0, 3.0),
+            p(3.0, 1.0),
+            p(1.0, 1.0),
+        ];
+        let mut out = vec![];
+        assert_eq!(triangulate(&keyhole, &mut out), Triangulated::Simple);
+        let total: f64 = out.iter().map(|&t| area3(&keyhole, t)).sum();
+        assert!((total - 12.0).abs() < 1e-9, "{total}");
     }
 
     #[test]
