@@ -126,14 +126,23 @@ pub fn rays<A: Accel>(scene: &Scene, kind: RayKind, n: usize, seed: u64, tracer:
     }
 }
 
-/// The light the shadow rays aim at: the scene's first light, or, in a scene without lights
-/// (a bare mesh), a point light a quarter of the bounding box's diagonal beyond its maximum
-/// corner (above, to the side, like a key light).
+/// The light the shadow rays aim at: the scene's first point or directional light; else a point
+/// light at the middle of its first area light (a sphere light's point nearest the middle of the
+/// scene), where that light's own samples lie; or, in a scene without lights (a bare mesh), a
+/// point light a quarter of the bounding box's diagonal beyond its maximum corner (above, to
+/// the side, like a key light).
 pub fn shadow_light(scene: &Scene) -> Light {
-    scene.lights.first().copied().unwrap_or_else(|| {
-        let b = scene.bounds();
-        let b = if b.min.cmple(b.max).all() { b } else { crate::math::Aabb::new(Vec3::ZERO, Vec3::ONE) };
-        Light::Point { position: b.max + 0.25 * (b.max - b.min), intensity: Vec3::ONE }
+    use crate::light::area::Shape;
+    let b = scene.bounds();
+    let b = if b.min.cmple(b.max).all() { b } else { crate::math::Aabb::new(Vec3::ZERO, Vec3::ONE) };
+    let area = scene.area_lights.first().map(|l| match l.shape {
+        Shape::Quad { corner, edge1, edge2 } => corner + 0.5 * (edge1 + edge2),
+        Shape::Disk { center, .. } => center,
+        Shape::Sphere { center, radius } => center + radius * (b.centroid() - center).normalize_or(Vec3::Y),
+    });
+    scene.lights.first().copied().unwrap_or_else(|| Light::Point {
+        position: area.unwrap_or(b.max + 0.25 * (b.max - b.min)),
+        intensity: Vec3::ONE,
     })
 }
 
@@ -276,6 +285,22 @@ mod tests {
         assert_eq!(rays, camera_rays(&cam));
         // The scene's own camera, as a pinhole.
         assert_eq!(primary_camera(&scene), scene.camera);
+    }
+
+    #[test]
+    fn shadow_rays_of_an_area_lit_scene_aim_at_its_area_light() {
+        use crate::accel::Accel;
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+        let scene = crate::scene::load(&path).unwrap().scene;
+        let Light::Point { position, .. } = shadow_light(&scene) else { panic!() };
+        // The middle of the published light's opening, 0.1 mm under the ceiling.
+        assert!((position - Vec3::new(0.278, 0.5487, 0.2795)).length() < 1e-6, "{position}");
+        // From inside the box most primary hits see it (a light outside the box, as for a
+        // bare mesh, would be hidden from every one of them by the walls).
+        let bvh = crate::bvh::Bvh::build(&scene).unwrap();
+        let shadow = rays(&scene, RayKind::Shadow, 4096, 1, &bvh).unwrap();
+        let lit = shadow.iter().filter(|r| !bvh.occluded(r).unwrap()).count();
+        assert!(lit * 2 > shadow.len(), "{lit} of {}", shadow.len());
     }
 
     #[test]
