@@ -248,6 +248,12 @@ scale = [1, -0.8, 1]
     assert_eq!(a.objects[1].kind, "instance");
     assert_eq!(a.objects[1].triangles, b.meshes[1].indices.len());
     assert_eq!(a.objects[1].materials, vec!["red".to_string()]);
+    // `strahl info` counts the prototype's triangles once as stored and twice as rays see them.
+    let t = b.meshes[1].indices.len();
+    let out = common::strahl(&["info", dir.write("a.toml", &instanced).to_str().unwrap()]);
+    let stdout = common::text(&out.stdout);
+    assert!(stdout.contains(&format!("instances: 2 of 1 prototypes ({t} prototype triangles)\n")), "{stdout}");
+    assert!(stdout.contains(&format!("unique triangles: {t}\ninstanced triangles: {}\n", 2 * t)), "{stdout}");
     for (backend, x, y) in
         [("embree", render(&a.scene).0, render(&b).0), ("native", render_native(&a.scene), render_native(&b))]
     {
