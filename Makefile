@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps build install demo test test-embree4 test-gltf-blender test-slurm forest fuzz bench clean
+.PHONY: all deps test-deps build install demo test test-embree4 test-gltf-blender test-mitsuba test-slurm forest fuzz bench clean
 
 all: build
 
@@ -76,6 +76,17 @@ test: deps test-deps
 # under /var/cache/strahl (needs root; see tools/test-embree4.sh).
 test-embree4:
 	bash tools/test-embree4.sh
+
+# strahl against Mitsuba 3 (pip's `mitsuba`, installed for the user when python3 cannot import
+# it): the Cornell box lit by its area light, rendered by both and compared pixel by pixel within
+# their noise (tools/mitsuba-compare.py, tests/mitsuba.rs, docs/mitsuba.md). `make test` runs
+# the test too, skipping loudly without Mitsuba; here a missing Mitsuba is a failure.
+test-mitsuba: deps
+	@python3 -c "import mitsuba, numpy, tomllib" 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check --user mitsuba numpy 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check --user --break-system-packages mitsuba numpy 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check mitsuba numpy
+	STRAHL_REQUIRE_MITSUBA=1 $(CARGO) test --locked --test mitsuba -- --nocapture
 
 # A real one-node Slurm cluster on localhost (installs Debian's Slurm and munge when missing;
 # needs root): an 8-tile `strahl farm slurm` render merged equals a single-process render.
