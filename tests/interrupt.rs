@@ -73,3 +73,35 @@ fn a_failing_png_leaves_the_previous_exr_and_no_temporary() {
         assert_eq!(left, ["out.exr", "taken.png"], "{png}");
     }
 }
+
+/// SIGKILL between the EXR's rename and the PNG's (held open by `STRAHL_TEST_COMMIT_DELAY_MS`):
+/// the folder has the new EXR and no PNG — never the new EXR beside the previous render's PNG
+/// (the old PNG is removed before the first rename, `strahl::io::atomic`). The PNG's temporary
+/// is left, as after any SIGKILL.
+#[test]
+fn sigkill_between_the_renames_never_pairs_the_new_exr_with_the_old_png() {
+    let dir = TempDir::new("sigkill-pair");
+    let scene = scene();
+    let (exr, png) = (dir.path("out.exr"), dir.path("out.png"));
+    let outputs = ["-o", exr.to_str().unwrap(), "--png", png.to_str().unwrap()];
+    let first = strahl(&[&["render", &scene, "--width", "16", "--height", "12"][..], &outputs].concat());
+    assert!(first.status.success(), "{}", text(&first.stderr));
+    let old_exr = std::fs::read(&exr).unwrap();
+    assert!(png.exists());
+    let args = [&["render", &scene, "--width", "20", "--height", "12"][..], &outputs].concat();
+    let mut child = common::spawn_strahl(args, ("STRAHL_TEST_COMMIT_DELAY_MS", "60000"));
+    let start = Instant::now();
+    while std::fs::read(&exr).unwrap() == old_exr {
+        assert!(start.elapsed() < Duration::from_secs(120), "the EXR was not replaced: {:?}", dir.entries());
+        assert!(child.try_wait().unwrap().is_none(), "strahl ended before its first rename");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    common::send_signal(&child, "-KILL");
+    child.wait().unwrap();
+    assert_eq!(common::read_exr(&exr).0, 20, "the new EXR, whole");
+    assert!(!png.exists(), "the previous render's PNG is beside the new EXR: {:?}", dir.entries());
+    let mut left = dir.entries();
+    left.sort();
+    assert_eq!(left.len(), 2, "{left:?}");
+    assert!(left[0].starts_with(".strahl-") && left[0].ends_with(".tmp") && left[1] == "out.exr", "{left:?}");
+}

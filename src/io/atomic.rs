@@ -5,9 +5,17 @@
 //! Several files that belong together (an EXR and its PNG preview) are first written whole to
 //! their temporaries ([`stage_with`]) and then renamed one after the other in [`commit_all`],
 //! with the signal registry locked: an error while writing either leaves neither, and a
-//! SIGINT/SIGTERM waits until both are renamed. Only a rename failing in between (both
-//! temporaries already written in full, in the destinations' own folders) or SIGKILL at that
-//! instant can leave one new file beside one old one.
+//! SIGINT/SIGTERM waits until both are renamed. Before the first rename, the existing
+//! destinations of the files renamed after it (the old PNG) are removed, so that a process
+//! killed between the renames (SIGKILL, power loss) leaves the new EXR without a preview, never
+//! beside the previous render's PNG: an old file beside a new one would silently mislead.
+//! Such a kill also leaves the unrenamed temporary (`.strahl-PID-N.tmp`) behind; other
+//! processes ignore it and it is safe to delete (stale temporaries are not removed
+//! automatically, because on a shared farm folder another node's live temporary looks the same).
+//! A rename failing in between (both temporaries already written in full, in the destinations'
+//! own folders; a directory in a destination's place is refused before) leaves the new first
+//! file and no second one, for the same reason. `STRAHL_TEST_COMMIT_DELAY_MS` (for tests)
+//! waits that long after the first rename.
 //!
 //! The temporary name is short, `.strahl-PID-N.tmp`, so that any legal output name works (a
 //! name derived from the output's would exceed the 255-byte limit for long ones). While it
@@ -137,7 +145,27 @@ pub fn commit_all(mut files: Vec<Staged>) -> Result<(), WriteError> {
             }
             return Err(WriteError::new(&path, "cannot write: is a directory"));
         }
+        // The old versions of the files renamed after the first go first (see the module
+        // docs); one that cannot be removed stops the commit before anything changed.
+        for i in 1..files.len() {
+            match fs::remove_file(&files[i].path) {
+                Err(e) if e.kind() != io::ErrorKind::NotFound => {
+                    let path = files[i].path.clone();
+                    for f in &mut files {
+                        fs::remove_file(&f.tmp).ok();
+                        f.done = true;
+                    }
+                    return Err(WriteError::new(&path, format!("cannot replace: {e}")));
+                }
+                _ => {}
+            }
+        }
         for i in 0..files.len() {
+            if i == 1
+                && let Some(ms) = std::env::var("STRAHL_TEST_COMMIT_DELAY_MS").ok().and_then(|v| v.parse().ok())
+            {
+                std::thread::sleep(std::time::Duration::from_millis(ms));
+            }
             if let Err(e) = fs::rename(&files[i].tmp, &files[i].path) {
                 // This one and the rest are removed here, still under the lock.
                 for rest in &mut files[i..] {
