@@ -645,8 +645,11 @@ impl<'a, A: Accel> Whitted<'a, A> {
                 }
             }
             for emitter in &self.emitters {
-                if let Some(inc) = emitter.sample(sp.p, dims.light(0, (1, 1))) {
-                    direct(inc, counts)?;
+                let grid = strata(emitter.samples);
+                for j in 0..emitter.samples {
+                    if let Some(inc) = emitter.sample(sp.p, dims.light(j, grid)) {
+                        direct(inc, counts)?;
+                    }
                 }
             }
         }

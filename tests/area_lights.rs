@@ -233,11 +233,19 @@ fn an_emissive_mesh_lights_like_the_quad_light_of_the_same_square() {
          radiance = {l}\ntwo_sided = true\n"
     );
     let view = looking_down(1.0, 0.01, 32, 4);
-    for (what, rest) in [("mesh", &mesh), ("quad", &quad)] {
+    let sixteen = format!("mesh_light_samples = 16\n{mesh}");
+    let mut errors = Vec::new();
+    for (what, rest) in [("mesh", &mesh), ("quad", &quad), ("mesh, 16 light samples", &sixteen)] {
         let e = irradiance_estimates(&common::render(&scene(&on_floor(&format!("{view}{rest}")))).0);
         let (mean, se) = mean_and_standard_error(&e);
         assert!((mean - exact).abs() <= 3.0 * se, "{what}: {mean} vs {exact} ± {se}");
+        errors.push(rms_error(&e, exact));
     }
+    // 16 stratified samples per shading point instead of 1: at least 4× (1/√16) less error.
+    assert!(errors[2] <= 0.25 * errors[0], "rms error 1 sample {} vs 16 samples {}", errors[0], errors[2]);
+    let bad = on_floor(&format!("{view}mesh_light_samples = 0\n{mesh}"));
+    let e = from_toml_str(&bad, Path::new("bad.toml")).expect_err("0 samples").to_string();
+    assert!(e.starts_with("bad.toml:") && e.contains("mesh_light_samples 0 must lie in 1..=4096"), "{e}");
     // With `mesh_lights = false` the square glows but lights nothing.
     let off = on_floor(&format!("{}mesh_lights = false\n{mesh}", view));
     assert!(common::render(&scene(&off)).0.rgba.iter().all(|p| p[..3] == [0.0; 3]));

@@ -3,7 +3,8 @@
 //! lights the scene like a quad light made of those triangles, two-sided (as the camera sees
 //! such a surface, from both sides).
 //!
-//! One sample per shading point per mesh: a triangle is chosen with probability proportional
+//! `mesh_light_samples` (in `[image]`, default 1) samples per shading point per mesh, each
+//! carrying `1/mesh_light_samples` of the estimate and stratified as an area light's: a triangle is chosen with probability proportional
 //! to its area and a point on it uniformly, so the points are uniform over the mesh's
 //! emitting area `A` (`pdf_A = 1/A`) and the estimate is, as for every area light,
 //!
@@ -34,6 +35,8 @@ pub struct MeshEmitter {
     radiance: Vec<Vec3>,
     /// `cdf[i]` = area of triangles `0..=i`; the last is the total.
     cdf: Vec<f64>,
+    /// Samples per shading point (the scene's `image.mesh_light_samples`).
+    pub samples: u32,
 }
 
 impl MeshEmitter {
@@ -47,7 +50,13 @@ impl MeshEmitter {
         for (k, mesh) in scene.meshes.iter().enumerate() {
             let emission =
                 |i: usize| scene.materials.get(mesh.material_of(i) as usize).map_or(Vec3::ZERO, |m| m.emission);
-            let mut e = MeshEmitter { mesh: k as u32, corners: Vec::new(), radiance: Vec::new(), cdf: Vec::new() };
+            let mut e = MeshEmitter {
+                mesh: k as u32,
+                corners: Vec::new(),
+                radiance: Vec::new(),
+                cdf: Vec::new(),
+                samples: scene.image.mesh_light_samples.max(1),
+            };
             let mut total = 0.0;
             for i in 0..mesh.indices.len() {
                 let l = emission(i);
@@ -97,7 +106,7 @@ impl MeshEmitter {
         (d2 > 0.0 && cos_l > 0.0).then(|| Incidence {
             to_light: w.as_vec3(),
             distance: d2.sqrt() as f32,
-            normal_irradiance: (self.radiance[i].as_dvec3() * (cos_l * total / d2)).as_vec3(),
+            normal_irradiance: (self.radiance[i].as_dvec3() * (cos_l * total / d2 / self.samples as f64)).as_vec3(),
         })
     }
 }

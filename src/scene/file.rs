@@ -25,7 +25,7 @@ use objects::{ObjectContext, ObjectFile};
 use super::{CameraSpec, ImageSpec, Scene};
 use crate::io::read::{MAX_SCENE_BYTES, ReadError, read_regular};
 use crate::light::Light;
-use crate::light::area::{AreaLight, Shape};
+use crate::light::area::{AreaLight, MAX_LIGHT_SAMPLES, Shape};
 use crate::material::{Material, Texture};
 use crate::math::Vec3;
 use crate::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
@@ -151,6 +151,9 @@ pub fn image_problem(image: &ImageSpec) -> Option<(&'static str, String)> {
     } else if image.max_depth > crate::integrator::MAX_DEPTH_LIMIT {
         let limit = crate::integrator::MAX_DEPTH_LIMIT;
         Some(("max_depth", format!("max_depth {} is more than the {limit} bounces strahl follows", image.max_depth)))
+    } else if !(1..=MAX_LIGHT_SAMPLES).contains(&image.mesh_light_samples) {
+        let n = image.mesh_light_samples;
+        Some(("mesh_light_samples", format!("mesh_light_samples {n} must lie in 1..={MAX_LIGHT_SAMPLES}")))
     } else if !image.background.is_finite() || image.background.min_element() < 0.0 {
         Some(("background", format!("background {} must be finite and ≥ 0", image.background)))
     } else if !image.ambient.is_finite() || image.ambient.min_element() < 0.0 {
@@ -298,6 +301,7 @@ struct ImageFile {
     background: Option<Spanned<Triple>>,
     ambient: Option<Spanned<Triple>>,
     mesh_lights: Option<bool>,
+    mesh_light_samples: Option<Spanned<u32>>,
 }
 
 #[derive(Deserialize)]
@@ -567,6 +571,7 @@ impl ImageFile {
             background: self.background.as_ref().map_or(Ok(d.background), |c| color(c, "background", None))?,
             ambient: self.ambient.as_ref().map_or(Ok(d.ambient), |c| color(c, "ambient", None))?,
             mesh_lights: self.mesh_lights.unwrap_or(d.mesh_lights),
+            mesh_light_samples: int(&self.mesh_light_samples, d.mesh_light_samples),
         };
         if let Some((field, message)) = image_problem(&spec) {
             let field_span = match field {
@@ -574,6 +579,7 @@ impl ImageFile {
                 "height" => self.height.as_ref().map(|v| v.span()),
                 "spp" => self.spp.as_ref().map(|v| v.span()),
                 "max_depth" => self.max_depth.as_ref().map(|v| v.span()),
+                "mesh_light_samples" => self.mesh_light_samples.as_ref().map(|v| v.span()),
                 _ => None,
             };
             return Err(at(field_span.unwrap_or_else(|| span.clone()), format!("image: {message}")));

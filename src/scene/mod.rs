@@ -94,6 +94,9 @@ pub struct ImageSpec {
     /// Whether meshes with an emitting material light the scene ([`crate::light::mesh`]);
     /// they glow either way.
     pub mesh_lights: bool,
+    /// Shadow rays per shading point toward each emitting mesh (`light_samples` of the quad,
+    /// disk and sphere lights), 1..=[`crate::light::area::MAX_LIGHT_SAMPLES`].
+    pub mesh_light_samples: u32,
 }
 
 impl Default for ImageSpec {
@@ -106,6 +109,7 @@ impl Default for ImageSpec {
             background: Vec3::ZERO,
             ambient: Vec3::ZERO,
             mesh_lights: true,
+            mesh_light_samples: 1,
         }
     }
 }

@@ -216,6 +216,7 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
             background: Vec3::new(0.35, 0.55, 0.9),
             ambient: Vec3::splat(0.05),
             mesh_lights: true,
+            mesh_light_samples: 1,
         },
         materials,
         lights: vec![
