@@ -28,7 +28,7 @@ use strahl::film::Film;
 use strahl::ids::ObjectIds;
 use strahl::integrator::{self, RayCounts, TileJob};
 use strahl::io::MeshFormat;
-use strahl::io::atomic::{directory_of, write_atomically};
+use strahl::io::atomic::{directory_of, write_atomically_with};
 use strahl::io::exr::{Compression, ExrOptions, Layout};
 use strahl::io::metadata::RenderInfo;
 use strahl::io::same_file::same_file;
@@ -381,14 +381,18 @@ fn render<A: Accel>(
     let mut done = Vec::new();
     if ckpt.path.exists() {
         if ckpt.resume {
-            let bytes = std::fs::read(&ckpt.path).with_context(|| format!("{shown}: cannot read the checkpoint"))?;
-            done = checkpoint::decode_into(&bytes, &ckpt.path, &ckpt.key, &tiles, &mut film)?;
+            done = checkpoint::read_into(&ckpt.path, &ckpt.key, &tiles, &mut film)?;
             eprintln!("resuming from {shown}: {} of {} tiles done", done.len(), tiles.len());
         } else {
             eprintln!("warning: {shown} exists; rendering from the start and replacing it (--resume continues it)");
         }
     }
-    let todo: Vec<usize> = (0..tiles.len()).filter(|k| !done.contains(k)).collect();
+    // A mask, not `done.contains`: a 16384² frame has a million tiles.
+    let mut is_done = vec![false; tiles.len()];
+    for &k in &done {
+        is_done[k] = true;
+    }
+    let todo: Vec<usize> = (0..tiles.len()).filter(|&k| !is_done[k]).collect();
     let todo_tiles: Vec<Region> = todo.iter().map(|&k| tiles[k]).collect();
 
     // While the tiles are traced, the first SIGINT/SIGTERM only asks to stop (the checkpoint
@@ -396,16 +400,15 @@ fn render<A: Accel>(
     let stop = strahl::signals::stop_requested();
     strahl::signals::graceful(true);
     let finished = Mutex::new(done);
-    let last_save = Mutex::new(Instant::now());
+    // When the last save ended and how long it took.
+    let last_save = Mutex::new((Instant::now(), Duration::ZERO));
     let save_failed = AtomicBool::new(false);
     let save = |film: &Mutex<Film>| -> anyhow::Result<usize> {
         let mut done = finished.lock().unwrap_or_else(|p| p.into_inner()).clone();
         done.sort_unstable();
-        let bytes = {
-            let film = film.lock().unwrap_or_else(|p| p.into_inner());
-            checkpoint::encode(&film, &tiles, &done, &ckpt.key)
-        };
-        write_atomically(&ckpt.path, &bytes)?;
+        // Streamed from the film, locked a batch at a time (a copy of a large film would
+        // double the render's memory).
+        write_atomically_with(&ckpt.path, |file| checkpoint::write_to(film, &tiles, &done, &ckpt.key, file))?;
         Ok(done.len())
     };
     let delay = tile_delay();
@@ -416,17 +419,23 @@ fn render<A: Accel>(
         }
         // One thread saves at a time; the others go on tracing.
         let Ok(mut last) = last_save.try_lock() else { return };
-        if last.elapsed() >= ckpt.every {
+        // A save competes with the tiles (for the film's lock, the disk, this thread): the
+        // next waits at least nine times as long, so saving costs at most about a tenth
+        // (`--checkpoint-every 0` asks for a save after every tile, whatever it costs).
+        let (at, took) = *last;
+        let wait = if ckpt.every.is_zero() { Duration::ZERO } else { ckpt.every.max(took * 9) };
+        if at.elapsed() >= wait {
+            let start = Instant::now();
             if let Err(e) = save(film) {
                 if !save_failed.swap(true, Ordering::Relaxed) {
                     eprintln!("warning: cannot save the checkpoint: {e:#}");
                 }
             }
-            *last = Instant::now();
+            *last = (Instant::now(), start.elapsed());
         }
     };
     let bar = Progress::new(region.pixel_count());
-    bar.inc(tiles.iter().zip(0..).filter(|(_, k)| !todo.contains(k)).map(|(t, _)| t.pixel_count()).sum());
+    bar.inc(tiles.iter().zip(&is_done).filter(|(_, d)| **d).map(|(t, _)| t.pixel_count()).sum());
     let render_start = Instant::now();
     let progress = |done| bar.inc(done);
     let job = TileJob { tiles: &todo_tiles, stop: Some(stop), progress: &progress, on_tile: &on_tile };

@@ -13,10 +13,22 @@ use std::fmt::Write as _;
 use super::Scene;
 
 /// 64-bit FNV-1a, fed bytes and formatted text.
-struct Fnv1a(u64);
+pub struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Fnv1a(0xcbf2_9ce4_8422_2325)
+    }
+}
 
 impl Fnv1a {
-    fn bytes(&mut self, bytes: &[u8]) {
+    /// The hash of the bytes fed so far.
+    pub fn value(&self) -> u64 {
+        self.0
+    }
+
+    /// Feeds `bytes`.
+    pub fn bytes(&mut self, bytes: &[u8]) {
         for &b in bytes {
             self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
         }
@@ -32,7 +44,7 @@ impl std::fmt::Write for Fnv1a {
 
 /// 64-bit FNV-1a of `bytes` (a checksum for strahl's own files, e.g. checkpoints).
 pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h = Fnv1a(0xcbf2_9ce4_8422_2325);
+    let mut h = Fnv1a::default();
     h.bytes(bytes);
     h.0
 }
