@@ -14,8 +14,9 @@ use crate::math::{Ray, Vec3};
 pub struct Hit {
     /// Ray parameter of the hit, in `(tnear, tfar)`.
     pub t: f32,
-    /// Geometric normal, not normalised. Triangles: `(p1 − p0) × (p2 − p0)`; spheres: the
-    /// outward `p − c`; planes: the plane's `n`.
+    /// Geometric normal in world space, not normalised. Triangles: `(p1 − p0) × (p2 − p0)`
+    /// (on an instance, that of the triangle flattened into world space, see
+    /// [`crate::scene::instance`]); spheres: the outward `p − c`; planes: the plane's `n`.
     pub ng: Vec3,
     /// Barycentric coordinates on triangles (`p = (1−u−v)·p0 + u·p1 + v·p2`); spherical
     /// coordinates in [0, 1] on spheres; 0 on planes.

@@ -337,11 +337,7 @@ fn same_t_tolerance(scene: &Scene, ray: &Ray, hit: &Hit) -> f64 {
         GeomKind::Spheres => vec![scene.spheres[hit.prim_id as usize].center.as_dvec3()],
         GeomKind::Planes => vec![ray.at(hit.t).as_dvec3()],
     };
-    // An instance hit's `ng` is in its prototype's object space: use the world triangle's.
-    let n = match scene.geom_kind(hit.geom_id) {
-        GeomKind::Instance(_) => (pts[1] - pts[0]).cross(pts[2] - pts[0]),
-        _ => hit.ng.as_dvec3(),
-    };
+    let n = hit.ng.as_dvec3();
     let d = ray.dir.as_dvec3();
     let obliquity = (d.length() * n.length() / d.dot(n).abs()).min(1000.0);
     EDGE_MARGIN * EPS * magnitude(org, &pts) * obliquity / d.length()

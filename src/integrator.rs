@@ -532,7 +532,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
             return Ok((background, Radiance { background, ..Default::default() }, None));
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
-        let first = FirstHit { t: hit.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit };
+        let first = FirstHit { t: sp.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit };
         let mut split = Radiance::default();
         let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, dims, counts, Some(&mut split))?;
         Ok((radiance, split, Some(first)))

@@ -11,6 +11,13 @@
 //! interpolate their corners, sphere points are projected back onto the sphere, plane points
 //! onto the plane.
 //!
+//! On triangles the hit's `t, u, v` are first re-solved in f64 against the world-space
+//! corners ([`triangle::resolve_f64`]), whichever backend found the hit: an instance's
+//! triangle is rebuilt exactly as flattening stores it (corners and vertex normals transformed
+//! one by one with the same f64 transform, the winding swapped under a mirroring transform,
+//! see [`crate::scene::instance`]), so an instanced scene shades bit for bit like the same
+//! scene flattened into world space, on both backends.
+//!
 //! Normals: the geometric normal `ng` is the primitive's own (outward for spheres, the
 //! winding's `(p1 − p0) × (p2 − p0)` for triangles, the plane's `n`). The shading normal `ns`
 //! is first put on the same side as that outward `ng` (so meshes whose vertex normals
@@ -20,6 +27,7 @@
 //! silhouettes of coarse meshes) it is replaced by `ng`.
 
 use crate::accel::Hit;
+use crate::geometry::triangle;
 use crate::math::{Ray, Vec2, Vec3};
 use crate::scene::{GeomKind, Scene};
 
@@ -40,6 +48,8 @@ pub struct SurfacePoint {
     pub material: u32,
     /// Diffuse albedo ρ here: the material's texture times the interpolated vertex colour.
     pub albedo: Vec3,
+    /// The ray parameter of the hit (on triangles re-solved in f64, see the module docs).
+    pub t: f32,
 }
 
 /// `(1 − u − v)·q0 + u·q1 + v·q2`.
@@ -61,45 +71,39 @@ impl SurfacePoint {
     /// integrator checks the scene before tracing).
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let prim = hit.prim_id as usize;
-        let (p, ng_outward, ns, colour, uv, material) = match scene.geom_kind(hit.geom_id) {
+        let (p, ng_outward, ns, colour, uv, material, t) = match scene.geom_kind(hit.geom_id) {
             GeomKind::Mesh(m) => {
                 let mesh = &scene.meshes[m as usize];
                 let idx = mesh.indices[prim].map(|i| i as usize);
                 let corners = idx.map(|i| mesh.positions[i]);
-                let p = barycentric(corners, hit.u, hit.v);
-                let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
-                let ns = mesh.normals.as_ref().map_or(Vec3::ZERO, |n| barycentric(idx.map(|i| n[i]), hit.u, hit.v));
-                let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), hit.u, hit.v));
-                let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), hit.u, hit.v));
-                (p, ng, ns.normalize_or_zero(), colour, uv, mesh.material_of(prim))
+                let normals = mesh.normals.as_ref().map(|n| idx.map(|i| n[i]));
+                let (p, ng, ns, colour, uv, t) = on_triangle(mesh, ray, hit, idx, corners, normals, false);
+                (p, ng, ns, colour, uv, mesh.material_of(prim), t)
             }
             GeomKind::Instance(k) => {
-                // As a flattened copy: corners and normals transformed one by one, then
-                // interpolated (see `crate::scene::instance`).
+                // The triangle as flattening stores it (see `crate::scene::instance`).
                 let inst = &scene.instances[k as usize];
                 let mesh = &scene.prototypes[inst.prototype as usize];
-                let idx = mesh.indices[prim].map(|i| i as usize);
-                let corners = inst.corners(mesh, prim);
-                let p = barycentric(corners, hit.u, hit.v);
-                let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
-                let ng = if inst.transform.flips_orientation() { -ng } else { ng };
-                let ns = mesh
-                    .normals
-                    .as_ref()
-                    .map_or(Vec3::ZERO, |n| barycentric(idx.map(|i| inst.transform.normal(n[i])), hit.u, hit.v));
-                let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), hit.u, hit.v));
-                let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), hit.u, hit.v));
-                (p, ng, ns.normalize_or_zero(), colour, uv, inst.material_of(mesh, prim))
+                let mut idx = mesh.indices[prim].map(|i| i as usize);
+                let swapped = inst.transform.flips_orientation();
+                if swapped {
+                    idx.swap(1, 2);
+                }
+                let corners = idx.map(|i| inst.transform.point(mesh.positions[i]));
+                let normals = mesh.normals.as_ref().map(|n| idx.map(|i| inst.transform.normal(n[i])));
+                let (p, ng, ns, colour, uv, t) = on_triangle(mesh, ray, hit, idx, corners, normals, swapped);
+                (p, ng, ns, colour, uv, inst.material_of(mesh, prim), t)
             }
             GeomKind::Spheres => {
                 let s = &scene.spheres[prim];
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
-                (s.center + s.radius * n, n, n, Vec3::ONE, Vec2::ZERO, s.material)
+                (s.center + s.radius * n, n, n, Vec3::ONE, Vec2::ZERO, s.material, hit.t)
             }
             GeomKind::Planes => {
                 let pl = &scene.planes[prim];
                 let x = ray.at(hit.t);
-                (x - (pl.normal.dot(x) - pl.dist) * pl.normal, pl.normal, pl.normal, Vec3::ONE, Vec2::ZERO, pl.material)
+                let p = x - (pl.normal.dot(x) - pl.dist) * pl.normal;
+                (p, pl.normal, pl.normal, Vec3::ONE, Vec2::ZERO, pl.material, hit.t)
             }
         };
         // A degenerate triangle (zero area) has no normal of its own: face the ray.
@@ -110,6 +114,30 @@ impl SurfacePoint {
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
         let ns = if ns.dot(ray.dir) >= 0.0 { ng } else { ns };
         let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo }
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, t }
     }
+}
+
+/// Point, unit geometric normal, shading normal, colour, texture coordinates and `t` of `hit`
+/// on the world-space triangle `corners` (vertex indices `idx` into `mesh`, world-space vertex
+/// normals `normals`), with `t, u, v` re-solved on it. `swapped`: the corners are `p0 p2 p1`
+/// of the triangle the backend hit, so its `u, v` trade places (used only if the re-solve
+/// fails, for a ray in the triangle's plane).
+fn on_triangle(
+    mesh: &crate::scene::Mesh,
+    ray: &Ray,
+    hit: &Hit,
+    idx: [usize; 3],
+    corners: [Vec3; 3],
+    normals: Option<[Vec3; 3]>,
+    swapped: bool,
+) -> (Vec3, Vec3, Vec3, Vec3, Vec2, f32) {
+    let (u, v) = if swapped { (hit.v, hit.u) } else { (hit.u, hit.v) };
+    let h = triangle::resolve_f64(ray.org, ray.dir, corners).unwrap_or(triangle::TriangleHit { t: hit.t, u, v });
+    let p = barycentric(corners, h.u, h.v);
+    let ng = triangle::normal(corners[0], corners[1], corners[2]).normalize_or_zero();
+    let ns = normals.map_or(Vec3::ZERO, |n| barycentric(n, h.u, h.v));
+    let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), h.u, h.v));
+    let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), h.u, h.v));
+    (p, ng, ns.normalize_or_zero(), colour, uv, h.t)
 }

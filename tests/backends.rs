@@ -72,11 +72,13 @@ fn whitted_renders_alike_with_both_backends() {
 
 #[test]
 fn cornell_renders_alike_with_both_backends() {
-    // Triangles too: two different f32 triangle tests.
+    // Triangles too: two different f32 triangle tests decide hit or miss, but shading
+    // re-solves each hit's t, u, v in f64 on the same triangle, so only a different decision
+    // at an edge can change a pixel (measured: none; before the re-solve most pixels differed
+    // in their last bits).
     let (beyond, bitwise) = compare_backends("cornell.toml");
     assert!(beyond <= 0.001, "{beyond}");
-    // The comparison sees differences at all: the triangle tests round differently.
-    assert!(bitwise > 0.0, "{bitwise}");
+    assert!(bitwise <= 0.001, "{bitwise}");
 }
 
 /// The numbers in a table row after its label.

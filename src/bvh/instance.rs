@@ -6,7 +6,8 @@
 //! is not renormalised, so `t` is the same in both spaces), and traced through the
 //! prototype's tree with `tfar` clipped to the closest hit so far. Hits carry the instance's
 //! geometry id ([`crate::scene::Scene::instance_geom_id`]) and the prototype's triangle, like
-//! Embree's; their `ng` stays in the prototype's space, as Embree reports it.
+//! Embree's; their `ng`, found in the prototype's space, is reported in world space
+//! ([`WorldNormals`]).
 //!
 //! The top tree splits the instances at the median of their box centres along the widest
 //! axis, down to leaves of [`TOP_LEAF`]; it is small (a node per two instances) and its build
@@ -18,6 +19,7 @@ use super::{Bvh, Error};
 use crate::accel::{Accel, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Scene;
+use crate::scene::instance::WorldNormals;
 
 /// Most instances in a top-level leaf.
 const TOP_LEAF: usize = 2;
@@ -44,6 +46,7 @@ pub struct Instances {
     prototypes: Vec<Bvh>,
     entries: Vec<Entry>,
     nodes: Vec<TopNode>,
+    normals: WorldNormals,
 }
 
 impl Instances {
@@ -75,7 +78,7 @@ impl Instances {
         let mut nodes = vec![TopNode { bounds: Aabb::EMPTY, first: 0, count: 0 }];
         split(&mut items, 0, 0, &mut nodes);
         let entries = items.into_iter().map(|(_, e)| e).collect();
-        Ok(Some(Instances { prototypes, entries, nodes }))
+        Ok(Some(Instances { prototypes, entries, nodes, normals: WorldNormals::of_scene(scene) }))
     }
 
     /// The closest instance hit within `(ray.tnear, ray.tfar)`.
@@ -92,7 +95,7 @@ impl Instances {
             }
             true
         });
-        closest
+        closest.map(|h| self.normals.to_world(h))
     }
 
     /// Whether any instance lies on the ray within `(tnear, tfar)`.

@@ -67,6 +67,8 @@ pub struct EmbreeAccel {
     _prototypes: Vec<Scene>,
     planes: Vec<Plane>,
     planes_geom_id: u32,
+    /// Instance hits' normals into world space (Embree reports them in object space).
+    normals: crate::scene::instance::WorldNormals,
 }
 
 impl EmbreeAccel {
@@ -100,6 +102,7 @@ impl EmbreeAccel {
             scene: builder.commit()?,
             planes: scene.planes.clone(),
             planes_geom_id: scene.planes_geom_id(),
+            normals: crate::scene::instance::WorldNormals::of_scene(scene),
         })
     }
 
@@ -127,7 +130,7 @@ impl Accel for EmbreeAccel {
 
     fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError> {
         let (clipped, plane_hit) = self.clip_to_planes(ray);
-        Ok(self.scene.intersect(&clipped)?.or(plane_hit))
+        Ok(self.scene.intersect(&clipped)?.map(|h| self.normals.to_world(h)).or(plane_hit))
     }
 
     fn occluded(&self, ray: &Ray) -> Result<bool, TraceError> {
@@ -148,9 +151,7 @@ impl Accel for EmbreeAccel {
             }
             self.scene.intersect8(&clipped[..n], hits)?;
             for (hit, plane_hit) in hits.iter_mut().zip(plane_hits) {
-                if hit.is_none() {
-                    *hit = plane_hit;
-                }
+                *hit = hit.map(|h| self.normals.to_world(h)).or(plane_hit);
             }
         }
         Ok(())

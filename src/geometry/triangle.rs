@@ -154,6 +154,32 @@ pub fn reported_t(org: Vec3, dir: Vec3, p: [Vec3; 3], t_test: f32, tnear: f32, t
     if t > tnear && t < tfar { t } else { t_test }
 }
 
+/// `t, u, v` of the ray `org + t·dir` where it crosses the plane of the triangle `p`, solved
+/// in f64 (Möller–Trumbore: `u = (e − p0)·(d × e2)/det`, `v = d·((e − p0) × e1)/det`,
+/// `t = e2·((e − p0) × e1)/det`, `e1 = p1 − p0`, `e2 = p2 − p0`, `det = e1·(d × e2)`) and rounded
+/// to f32 once; `None` when `det` is 0 (a ray in the triangle's plane) or not finite.
+///
+/// Shading re-solves every triangle hit with it ([`crate::surface::SurfacePoint`]), whichever
+/// backend found the hit and in whichever space: a hit on an instance (found in object space)
+/// and the same hit on the instance flattened into world space then give the same bits, and
+/// both are right to the rounding of the result (the backends' f32 values are off by a few
+/// ulps, more where the corners lie far from the hit).
+#[inline]
+pub fn resolve_f64(org: Vec3, dir: Vec3, p: [Vec3; 3]) -> Option<TriangleHit> {
+    let (o, d) = (org.as_dvec3(), dir.as_dvec3());
+    let [p0, p1, p2] = p.map(|p| p.as_dvec3());
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let tv = o - p0;
+    let qv = tv.cross(e1);
+    let (u, v, t) = (tv.dot(pv) / det, d.dot(qv) / det, e2.dot(qv) / det);
+    Some(TriangleHit { t: t as f32, u: u as f32, v: v as f32 })
+}
+
 /// How much farther than the hit a corner may be before [`reported_t`] recomputes `t`.
 pub const FAR_CORNER: f32 = 4.0;
 
@@ -283,6 +309,23 @@ mod tests {
 
     fn down_at(x: f32, y: f32) -> Option<TriangleHit> {
         intersect_ray(Vec3::new(x, y, 3.0), -Vec3::Z, TRI, 0.0, INF)
+    }
+
+    #[test]
+    fn resolve_f64_gives_the_exact_crossing() {
+        // Straight down at (0.5, 0.25) from z = 3: t = 3, u = x/2, v = y/2 exactly.
+        let h = resolve_f64(Vec3::new(0.5, 0.25, 3.0), -Vec3::Z, TRI).unwrap();
+        assert_eq!(h, TriangleHit { t: 3.0, u: 0.25, v: 0.125 });
+        // Oblique, far from the corners: against the plane's crossing solved in f64 by hand.
+        let (org, dir) = (Vec3::new(-300.0, 200.0, 700.0), Vec3::new(0.4301, -0.2802, -1.0).normalize());
+        let h = resolve_f64(org, dir, TRI).unwrap();
+        let t = -(org.z as f64) / dir.z as f64;
+        let x = org.as_dvec3() + t * dir.as_dvec3();
+        assert_eq!((h.t, h.u, h.v), (t as f32, (x.x / 2.0) as f32, (x.y / 2.0) as f32));
+        // Outside the triangle it still solves the plane (u + v > 1 here); in the plane: none.
+        let h = resolve_f64(Vec3::new(1.5, 1.5, 1.0), -Vec3::Z, TRI).unwrap();
+        assert_eq!((h.u, h.v), (0.75, 0.75));
+        assert_eq!(resolve_f64(Vec3::new(-1.0, 0.5, 0.0), Vec3::X, TRI), None);
     }
 
     #[test]

@@ -120,6 +120,14 @@ impl Transform {
         (off <= tolerance).then(|| k2.sqrt())
     }
 
+    /// The world-space geometric normal `(p1 − p0) × (p2 − p0)` of a triangle as flattening
+    /// places it, from its object-space one `n`: `|det L|·L⁻ᵀ·n` in f64. (`L·a × L·b =
+    /// det L·L⁻ᵀ·(a × b)`, and under a mirroring `L` flattening swaps two corners, which
+    /// negates it once more.) Not normalised, like a triangle's own.
+    pub fn area_normal_f64(&self, n: DVec3) -> DVec3 {
+        self.linear.determinant().abs() * (self.normal_matrix * n)
+    }
+
     /// Whether the transform mirrors (negative determinant): triangles must then swap two
     /// corners so that their winding still agrees with their normals.
     pub fn flips_orientation(&self) -> bool {
