@@ -8,8 +8,8 @@
 //!
 //! A block whose compressed form is not smaller than its raw bytes is stored raw, as OpenEXR
 //! does (a reader tells the two apart by the size). Any zlib level gives a valid file; the
-//! `exr` crate deflates with miniz_oxide at level 4, strahl with `flate2`'s zlib-rs backend at
-//! [`ZLIB_LEVEL`] (measured in the module `crate::io::exr` docs). The preprocessing is
+//! `exr` crate deflates with miniz_oxide at level 4, strahl with `flate2`'s default backend
+//! (miniz_oxide too) at [`ZLIB_LEVEL`] (measured in the module `crate::io::exr` docs). The preprocessing is
 //! written out here because the `exr` crate keeps its own private.
 
 use std::io::Write;
