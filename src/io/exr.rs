@@ -321,32 +321,33 @@ pub fn encode_to<W: Write + Seek>(
 fn write_blocks<W: Write + Seek>(
     header: Header,
     threads: usize,
-    block: impl FnMut(BlockIndex) -> Vec<u8>,
+    block: impl Fn(BlockIndex) -> Vec<u8> + Sync,
     out: W,
 ) -> std::result::Result<(), exr::error::Error> {
     let zip = matches!(header.compression, exr::compression::Compression::ZIP16 | exr::compression::Compression::ZIP1);
     exr::block::write(out, exr::prelude::SmallVec::from_vec(vec![header]), true, |meta, chunk_writer| {
-        let mut blocks = meta.collect_ordered_block_data(block);
         if zip {
             // strahl's own ZIP (a faster deflate, `exr_zip`), a batch of blocks at a time in
-            // parallel, written in order.
+            // parallel (each block's bytes gathered and compressed on the same thread), written
+            // in order.
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads.max(1))
                 .build()
                 .map_err(|e| exr::error::Error::Io(std::io::Error::other(e)))?;
+            let mut indices = meta.enumerate_ordered_header_block_indices();
             loop {
-                let batch: Vec<_> = blocks.by_ref().take(8 * threads.max(1)).collect();
+                let batch: Vec<(usize, BlockIndex)> = indices.by_ref().take(8 * threads.max(1)).collect();
                 if batch.is_empty() {
                     return Ok(());
                 }
                 let compressed: Vec<Vec<u8>> = pool.install(|| {
                     use rayon::prelude::*;
-                    batch.par_iter().map(|(_, block)| super::exr_zip::compress_block(&block.data)).collect()
+                    batch.par_iter().map(|(_, index)| super::exr_zip::compress_block(&block(*index))).collect()
                 });
-                for ((index, block), pixels) in batch.into_iter().zip(compressed) {
+                for ((index, block_index), pixels) in batch.into_iter().zip(compressed) {
                     // Lines are numbered in the file's coordinates: the data window's origin
                     // (a region's) plus the line in the block's layer.
-                    let y_coordinate = i32::try_from(block.index.pixel_position.1)
+                    let y_coordinate = i32::try_from(block_index.pixel_position.1)
                         .ok()
                         .and_then(|y| y.checked_add(meta.headers[0].own_attributes.layer_position.1))
                         .ok_or_else(|| exr::error::Error::Invalid("image too tall".into()))?;
@@ -358,6 +359,7 @@ fn write_blocks<W: Write + Seek>(
                 }
             }
         }
+        let blocks = meta.collect_ordered_block_data(block);
         if threads > 1 {
             let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
             if let Some(mut parallel) = ParallelBlocksCompressor::new_with_thread_pool(&meta, chunk_writer, pool) {
@@ -388,7 +390,7 @@ pub fn encode(film: &Film, options: &ExrOptions, threads: usize) -> std::result:
 pub fn encode_blocks(
     header: Header,
     threads: usize,
-    block: impl FnMut(BlockIndex) -> Vec<u8>,
+    block: impl Fn(BlockIndex) -> Vec<u8> + Sync,
 ) -> std::result::Result<Vec<u8>, exr::error::Error> {
     let mut bytes = Cursor::new(Vec::new());
     write_blocks(header, threads, block, &mut bytes)?;
