@@ -145,3 +145,32 @@ fn a_mesh_file_on_its_own_is_a_scene_of_that_mesh() {
     let e = fails(&dir, &["info", bad.to_str().unwrap()]);
     assert!(e.starts_with(&format!("error: {}:3: ", bad.display())), "{e}");
 }
+
+/// `--width`, `--height` and `--passes` give the memory estimate of the render a farm user
+/// plans: 16384² pixels × 11 floats (RGBA, Z, N, albedo) × 4 bytes = 11,811 MB of film, or
+/// × 4 floats with `--passes combined`; sizes and passes are checked as `strahl render` checks them.
+#[test]
+fn the_memory_estimate_at_the_size_and_passes_given() {
+    let scene = shipped("whitted.toml");
+    let estimate = |extra: &[&str]| -> String {
+        let out = strahl(&[&["info", scene.to_str().unwrap()][..], extra].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stdout).lines().find(|l| l.starts_with("memory estimate: ")).unwrap().to_string()
+    };
+    let film_mb = |line: &str| -> u64 {
+        let at = line.find("film ").unwrap() + "film ".len();
+        line[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    let big = estimate(&["--width", "16384", "--height", "16384"]);
+    assert_eq!(film_mb(&big), (16384u64 * 16384 * 11 * 4).div_ceil(1_000_000), "{big}");
+    assert!(big.ends_with("at 16384 × 16384 (strahl render refuses more than --max-memory)"), "{big}");
+    let combined = estimate(&["--width", "16384", "--height", "16384", "--passes", "combined"]);
+    assert_eq!(film_mb(&combined), (16384u64 * 16384 * 4 * 4).div_ceil(1_000_000), "{combined}");
+    // Without them, the scene's own size (whitted.toml: 640 × 480).
+    assert!(estimate(&[]).contains(" at 640 × 480 "), "{}", estimate(&[]));
+    let dir = TempDir::new("info-size");
+    let e = fails(&dir, &["info", scene.to_str().unwrap(), "--width", "40000", "--height", "40000"]);
+    assert!(e.contains("40000 × 40000 pixels is more than the 1073741824"), "{e}");
+    let e = fails(&dir, &["info", scene.to_str().unwrap(), "--passes", "bogus"]);
+    assert!(e.contains("--passes: unknown pass 'bogus'"), "{e}");
+}

@@ -2,7 +2,8 @@
 //! item per line in a fixed order: each object (name, type, mesh file, primitive count,
 //! materials), then the totals (with instances: unique triangles, stored once, and instanced
 //! triangles, as rays see them), the bounding box, the degenerate triangles dropped from mesh
-//! files and the time loading took.
+//! files, the memory a render would need (at the scene's size and passes, or those of
+//! `--width`, `--height`, `--passes`, as `strahl render` takes them) and the time loading took.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -15,12 +16,32 @@ use strahl::scene::{Loaded, ObjectSummary};
 pub struct InfoArgs {
     /// The scene file (TOML; see docs/scene-format.md).
     scene: PathBuf,
+    /// Image width for the memory estimate (as `strahl render --width`).
+    #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    width: Option<u32>,
+    /// Image height for the memory estimate (as `strahl render --height`).
+    #[arg(long, value_name = "H", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    height: Option<u32>,
+    /// Passes for the memory estimate (as `strahl render --passes`).
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    passes: Option<Vec<String>>,
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let start = Instant::now();
-    let loaded = super::load_scene(&args.scene)?;
+    let mut loaded = super::load_scene(&args.scene)?;
     let load_seconds = start.elapsed().as_secs_f64();
+    // The size and passes a render would be given, for the memory estimate.
+    let image = &mut loaded.scene.image;
+    image.width = args.width.unwrap_or(image.width);
+    image.height = args.height.unwrap_or(image.height);
+    if let Some((_, problem)) = strahl::scene::file::image_problem(image) {
+        anyhow::bail!("{}: with the command-line settings: {problem}", args.scene.display());
+    }
+    if let Some(passes) = &args.passes {
+        loaded.scene.output.passes =
+            strahl::passes::PassSet::parse(passes).map_err(|m| anyhow::anyhow!("--passes: {m}"))?;
+    }
     print!("{}", describe(&args.scene.display().to_string(), &loaded, load_seconds));
     Ok(())
 }
