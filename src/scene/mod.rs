@@ -13,6 +13,7 @@ pub mod hash;
 pub mod instance;
 pub mod mesh;
 pub mod procedural;
+pub mod subdivide;
 pub mod transform;
 
 pub use file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};

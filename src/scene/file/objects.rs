@@ -21,7 +21,10 @@ use crate::geometry::Sphere;
 use crate::io::{MeshError, MeshOptions, load_mesh};
 use crate::math::{Aabb, Vec3};
 use crate::scene::transform::Transform;
-use crate::scene::{Instance, Mesh, Scene, procedural};
+use crate::scene::{Instance, Mesh, Scene, procedural, subdivide};
+
+/// Most triangles a `mesh` object's `subdivide` may make (2²⁵, about 3 GB with its BVH).
+pub const MAX_SUBDIVIDED_TRIANGLES: u64 = 1 << 25;
 
 #[derive(Deserialize, Clone, Copy, Debug, PartialEq)]
 #[serde(rename_all = "snake_case")]
@@ -70,7 +73,9 @@ impl ObjectKind {
                 "bounds",
                 "radii",
             ],
-            ObjectKind::Mesh => &["name", "material", "translate", "rotate_deg", "scale", "path", "smooth_normals"],
+            ObjectKind::Mesh => {
+                &["name", "material", "translate", "rotate_deg", "scale", "path", "smooth_normals", "subdivide"]
+            }
             ObjectKind::Gltf => &["name", "material", "translate", "rotate_deg", "scale", "path"],
             ObjectKind::Instance => &["name", "material", "translate", "rotate_deg", "scale", "of"],
         }
@@ -111,6 +116,7 @@ pub(super) struct ObjectFile {
     // mesh
     path: Option<Spanned<String>>,
     smooth_normals: Option<Spanned<bool>>,
+    subdivide: Option<Spanned<u32>>,
 }
 
 impl ObjectFile {
@@ -126,6 +132,7 @@ impl ObjectFile {
         }
         collect!(name, material, materials, translate, rotate_deg, scale, center, radius, normal, distance, point);
         collect!(positions, indices, normals, colors, count, seed, bounds, radii, path, smooth_normals, of);
+        collect!(subdivide);
         present
     }
 }
@@ -336,8 +343,26 @@ impl ObjectFile {
                 let options =
                     MeshOptions { smooth_normals: self.smooth_normals.as_ref().is_some_and(|s| *s.get_ref()) };
                 let file = ctx.base.join(path.get_ref());
-                let (meshes, report) =
+                let levels = self.subdivide.as_ref().map_or(0, |l| *l.get_ref());
+                if let Some(l) = self.subdivide.as_ref().filter(|l| *l.get_ref() > subdivide::MAX_LEVELS) {
+                    return Err(at(l.span(), format!("`subdivide` is {levels}, at most {}", subdivide::MAX_LEVELS)));
+                }
+                let (mut meshes, report) =
                     load_mesh_file(&file, &options, material, scene).map_err(|e| at(path.span(), e.to_string()))?;
+                if let Some(l) = &self.subdivide {
+                    let triangles = meshes.iter().map(|m| m.indices.len()).sum();
+                    let after = subdivide::triangles_after(triangles, levels).unwrap_or(u64::MAX);
+                    if after > MAX_SUBDIVIDED_TRIANGLES {
+                        return Err(at(
+                            l.span(),
+                            format!(
+                                "`subdivide = {levels}` makes {after} triangles of {triangles}, more than \
+                                 {MAX_SUBDIVIDED_TRIANGLES} (use fewer levels, or instances of a smaller mesh)"
+                            ),
+                        ));
+                    }
+                    meshes = meshes.iter().map(|m| subdivide::subdivide(m, levels)).collect();
+                }
                 self.place(scene, ctx, meshes, &transform);
                 return Ok(report);
             }
