@@ -7,6 +7,10 @@
 //! 2. **Intersection** ([`Accel`]): the closest hit with `t > 0`. Primary rays of a tile go
 //!    to [`Accel::intersect_batch`] (Embree traces them as 8-wide packets, 2–4× faster on
 //!    coherent rays); secondary rays one at a time; shadow rays as any-hit `occluded` queries.
+//!    The shadow rays of a tile's camera-ray hits go out light by light (for an area light,
+//!    sample by sample) as one [`Accel::occluded_batch`] each, which Embree traces as 8-wide
+//!    `rtcOccluded8` packets: neighbouring pixels' rays towards one light point are as coherent
+//!    as their camera rays. Deeper hits trace theirs one by one.
 //! 3. **Shading** ([`Whitted::shade`]) at the hit, with the data of [`SurfacePoint`]:
 //!
 //! ```text
@@ -81,6 +85,7 @@ use crate::film::Film;
 use crate::ids::ObjectIds;
 use crate::light::Incidence;
 use crate::light::mesh::MeshEmitter;
+use crate::material::Material;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::optics;
 use crate::passes::{LIGHT_PASSES, Pass};
@@ -334,6 +339,13 @@ pub struct FirstHit {
     pub hit: Hit,
 }
 
+impl FirstHit {
+    /// What the AOVs record of the camera ray's `hit`, shaded as `sp`.
+    fn new(sp: &SurfacePoint, hit: &Hit) -> Self {
+        FirstHit { t: sp.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit }
+    }
+}
+
 /// The running sums of one pixel's samples (added in sample order, so deterministically).
 #[derive(Clone, Debug, Default)]
 struct PixelAccumulator {
@@ -438,6 +450,23 @@ pub struct Whitted<'a, A: Accel> {
     pub emitters: Vec<MeshEmitter>,
 }
 
+/// One shadow ray a shading point may cast: towards a point or directional light, or sample
+/// `j` (of the stratum grid `grid`) of an area light or an emissive mesh.
+#[derive(Clone, Copy, Debug)]
+enum LightSlot {
+    Delta(usize),
+    Area { light: usize, j: u32, grid: (u32, u32) },
+    Emitter { emitter: usize, j: u32, grid: (u32, u32) },
+}
+
+/// What the camera ray of one pixel found, while a tile's direct light is gathered light by
+/// light: its hit, its radiance and split so far.
+struct PrimaryShading {
+    sp: Option<SurfacePoint>,
+    radiance: Vec3,
+    split: Radiance,
+}
+
 impl<'a, A: Accel> Whitted<'a, A> {
     /// The integrator of `scene` seen by `camera`, tracing through `accel`.
     pub fn new(scene: &'a Scene, accel: &'a A, camera: Camera) -> Self {
@@ -480,6 +509,8 @@ impl<'a, A: Accel> Whitted<'a, A> {
         let mut counts = RayCounts::default();
         let mut rays = Vec::with_capacity(pixels.len());
         let mut hits = vec![None; pixels.len()];
+        let mut primary = Vec::with_capacity(pixels.len());
+        let mut batch = ShadowBatch::default();
         for sample in 0..spp {
             // 1. Ray generation.
             rays.clear();
@@ -491,11 +522,24 @@ impl<'a, A: Accel> Whitted<'a, A> {
             counts.primary += rays.len() as u64;
             // 2. Intersection, as packets.
             self.accel.intersect_batch(&rays, &mut hits)?;
-            // 3. Shading.
-            for (((ray, hit), acc), d) in rays.iter().zip(&hits).zip(&mut accumulators).zip(&mut dims) {
-                let (radiance, split, first) = self.shade_primary_split(ray, hit.as_ref(), d, &mut counts)?;
+            // 3. Shading: emission, then direct light with the shadow rays towards each light
+            // (sample) traced as one batch, then reflection and refraction pixel by pixel.
+            primary.clear();
+            primary.extend(rays.iter().zip(&hits).map(|(ray, hit)| self.shade_emission(ray, hit.as_ref())));
+            self.direct_batch(&rays, &mut primary, &mut dims, &mut counts, &mut batch)?;
+            for ((((ray, hit), acc), d), p) in
+                rays.iter().zip(&hits).zip(&mut accumulators).zip(&mut dims).zip(&mut primary)
+            {
+                let first = match (&p.sp, hit) {
+                    (Some(sp), Some(hit)) => {
+                        p.radiance =
+                            self.shade_indirect(ray, sp, 0, Vec3::ONE, d, &mut counts, p.radiance, Some(&mut p.split))?;
+                        Some(FirstHit::new(sp, hit))
+                    }
+                    _ => None,
+                };
                 let object = first.filter(|_| crypto).map(|f| ids.object_of(self.scene, &f.hit));
-                acc.add(radiance, &split, first, object);
+                acc.add(p.radiance, &p.split, first, object);
             }
         }
         Ok((pixels, accumulators, counts))
@@ -532,7 +576,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
             return Ok((background, Radiance { background, ..Default::default() }, None));
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
-        let first = FirstHit { t: sp.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit };
+        let first = FirstHit::new(&sp, hit);
         let mut split = Radiance::default();
         let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, dims, counts, Some(&mut split))?;
         Ok((radiance, split, Some(first)))
@@ -584,76 +628,142 @@ impl<'a, A: Accel> Whitted<'a, A> {
         counts: &mut RayCounts,
         mut split: Option<&mut Radiance>,
     ) -> Result<Vec3, TraceError> {
-        let scene = self.scene;
-        let m = &scene.materials[sp.material as usize];
-        let wo = -ray.dir;
-
-        // Emission (from the front only, for a one-sided emitter) and ambient: a diffuse
-        // surface under uniform radiance L_a reflects ρ·L_a.
-        let emission = if m.emission_one_sided && !sp.front_face { Vec3::ZERO } else { m.emission };
-        let mut l = emission + sp.albedo * scene.image.ambient;
-        if let Some(split) = split.as_deref_mut() {
-            split.emission = l;
-        }
+        let m = &self.scene.materials[sp.material as usize];
+        let mut l = self.emission(sp, split.as_deref_mut());
 
         // Direct light: one shadow ray per point or directional light, `light_samples` per
         // area light (each sample's incidence carries 1/light_samples of the estimate).
-        if sp.albedo != Vec3::ZERO || m.specular != Vec3::ZERO {
+        if is_lit(sp, m) {
             let origin = offset_ray_origin(sp.p, sp.ng);
-            let mut direct = |inc: Incidence, counts: &mut RayCounts| -> Result<(), TraceError> {
-                let cos = sp.ns.dot(inc.to_light);
-                if cos <= 0.0 || sp.ng.dot(inc.to_light) <= 0.0 {
-                    return Ok(()); // behind the surface: self-shadowed without a ray
-                }
-                let shadow = if inc.distance.is_finite() {
-                    let to = (sp.p + inc.distance * inc.to_light) - origin;
-                    let d = to.length();
-                    Ray::segment(origin, to / d, 0.0, d * SHADOW_TFAR_SCALE)
-                } else {
-                    Ray::new(origin, inc.to_light)
-                };
+            for slot in self.slots() {
+                let Some(inc) = self.incidence(&slot, sp.p, dims) else { continue };
+                let Some(shadow) = shadow_ray(sp, origin, &inc) else { continue };
                 counts.shadow += 1;
-                if self.accel.occluded(&shadow)? {
-                    return Ok(());
-                }
-                let lambert = optics::lambert(sp.albedo);
-                let mut brdf = lambert;
-                let mut highlight = Vec3::ZERO;
-                if m.specular != Vec3::ZERO {
-                    let h = (inc.to_light + wo).normalize_or_zero();
-                    highlight = m.specular * optics::blinn_phong(sp.ns.dot(h), m.shininess);
-                    brdf += highlight;
-                }
-                l += brdf * inc.normal_irradiance * cos;
-                if let Some(split) = split.as_deref_mut() {
-                    split.diffuse += lambert * inc.normal_irradiance * cos;
-                    split.specular += highlight * inc.normal_irradiance * cos;
-                }
-                Ok(())
-            };
-            for light in &scene.lights {
-                if let Some(inc) = light.incidence(sp.p) {
-                    direct(inc, counts)?;
-                }
-            }
-            for light in &scene.area_lights {
-                let grid = strata(light.samples);
-                for j in 0..light.samples {
-                    if let Some(inc) = light.sample(sp.p, dims.light(j, grid)) {
-                        direct(inc, counts)?;
-                    }
-                }
-            }
-            for emitter in &self.emitters {
-                let grid = strata(emitter.samples);
-                for j in 0..emitter.samples {
-                    if let Some(inc) = emitter.sample(sp.p, dims.light(j, grid)) {
-                        direct(inc, counts)?;
-                    }
+                if !self.accel.occluded(&shadow)? {
+                    add_direct(sp, m, -ray.dir, &inc, &mut l, split.as_deref_mut());
                 }
             }
         }
+        self.shade_indirect(ray, sp, depth, throughput, dims, counts, l, split)
+    }
 
+    /// Emission (from the front only, for a one-sided emitter) and ambient: a diffuse surface
+    /// under uniform radiance `L_a` reflects `ρ·L_a`. Sets `split.emission`.
+    fn emission(&self, sp: &SurfacePoint, split: Option<&mut Radiance>) -> Vec3 {
+        let m = &self.scene.materials[sp.material as usize];
+        let emission = if m.emission_one_sided && !sp.front_face { Vec3::ZERO } else { m.emission };
+        let l = emission + sp.albedo * self.scene.image.ambient;
+        if let Some(split) = split {
+            split.emission = l;
+        }
+        l
+    }
+
+    /// A camera ray's shading before its direct light: the background when it hits nothing,
+    /// else its surface point and [`Whitted::emission`].
+    fn shade_emission(&self, ray: &Ray, hit: Option<&Hit>) -> PrimaryShading {
+        let Some(hit) = hit else {
+            let background = self.background();
+            return PrimaryShading {
+                sp: None,
+                radiance: background,
+                split: Radiance { background, ..Default::default() },
+            };
+        };
+        let sp = SurfacePoint::new(self.scene, ray, hit);
+        let mut split = Radiance::default();
+        let radiance = self.emission(&sp, Some(&mut split));
+        PrimaryShading { sp: Some(sp), radiance, split }
+    }
+
+    /// The direct light at the camera rays' hits, light (sample) by light: the shadow rays of
+    /// all pixels towards one light sample go to [`Accel::occluded_batch`] together (Embree
+    /// traces them as 8-wide packets). Each pixel draws its light samples and adds its terms
+    /// in the order [`Whitted::shade_split`] does, so the sums are bit-identical to it.
+    fn direct_batch(
+        &self,
+        rays: &[Ray],
+        primary: &mut [PrimaryShading],
+        dims: &mut [SampleDims],
+        counts: &mut RayCounts,
+        batch: &mut ShadowBatch,
+    ) -> Result<(), TraceError> {
+        let materials = &self.scene.materials;
+        batch.origins.clear();
+        batch.origins.extend(primary.iter().map(|p| match &p.sp {
+            Some(sp) if is_lit(sp, &materials[sp.material as usize]) => Some(offset_ray_origin(sp.p, sp.ng)),
+            _ => None,
+        }));
+        for slot in self.slots() {
+            batch.rays.clear();
+            batch.owners.clear();
+            for (i, ((p, d), origin)) in primary.iter().zip(dims.iter_mut()).zip(&batch.origins).enumerate() {
+                let (Some(sp), Some(origin)) = (&p.sp, origin) else { continue };
+                let Some(inc) = self.incidence(&slot, sp.p, d) else { continue };
+                let Some(shadow) = shadow_ray(sp, *origin, &inc) else { continue };
+                batch.rays.push(shadow);
+                batch.owners.push((i, inc));
+            }
+            if batch.rays.is_empty() {
+                continue;
+            }
+            counts.shadow += batch.rays.len() as u64;
+            batch.occluded.clear();
+            batch.occluded.resize(batch.rays.len(), false);
+            self.accel.occluded_batch(&batch.rays, &mut batch.occluded)?;
+            for (&(i, inc), &occluded) in batch.owners.iter().zip(&batch.occluded) {
+                let p = &mut primary[i];
+                if let (false, Some(sp)) = (occluded, &p.sp) {
+                    let m = &materials[sp.material as usize];
+                    add_direct(sp, m, -rays[i].dir, &inc, &mut p.radiance, Some(&mut p.split));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Every shadow ray a shading point may cast, in the order their light is added: the point
+    /// and directional lights, then each area light's samples, then each emissive mesh's.
+    fn slots(&self) -> impl Iterator<Item = LightSlot> + '_ {
+        let delta = (0..self.scene.lights.len()).map(LightSlot::Delta);
+        let area = self.scene.area_lights.iter().enumerate().flat_map(|(light, l)| {
+            let grid = strata(l.samples);
+            (0..l.samples).map(move |j| LightSlot::Area { light, j, grid })
+        });
+        let emitters = self.emitters.iter().enumerate().flat_map(|(emitter, e)| {
+            let grid = strata(e.samples);
+            (0..e.samples).map(move |j| LightSlot::Emitter { emitter, j, grid })
+        });
+        delta.chain(area).chain(emitters)
+    }
+
+    /// How the light of `slot` reaches `p`, drawing its sample point from `dims`.
+    #[inline]
+    fn incidence(&self, slot: &LightSlot, p: Vec3, dims: &mut SampleDims) -> Option<Incidence> {
+        match *slot {
+            LightSlot::Delta(i) => self.scene.lights[i].incidence(p),
+            LightSlot::Area { light, j, grid } => self.scene.area_lights[light].sample(p, dims.light(j, grid)),
+            LightSlot::Emitter { emitter, j, grid } => self.emitters[emitter].sample(p, dims.light(j, grid)),
+        }
+    }
+
+    /// Reflection and refraction at `sp` (hit by `ray` at recursion depth `depth`), added to
+    /// `l`, the radiance of the terms before them: the radiance leaving `sp` along `-ray.dir`.
+    #[allow(clippy::too_many_arguments)] // the ray, the hit, the path's state, and what it adds to
+    fn shade_indirect(
+        &self,
+        ray: &Ray,
+        sp: &SurfacePoint,
+        depth: u32,
+        throughput: Vec3,
+        dims: &mut SampleDims,
+        counts: &mut RayCounts,
+        mut l: Vec3,
+        mut split: Option<&mut Radiance>,
+    ) -> Result<Vec3, TraceError> {
+        let scene = self.scene;
+        let m = &scene.materials[sp.material as usize];
+        let wo = -ray.dir;
         if depth >= scene.image.max_depth {
             return Ok(l);
         }
@@ -704,4 +814,60 @@ impl<'a, A: Accel> Whitted<'a, A> {
         }
         Ok(l)
     }
+}
+
+/// Whether light reaching `sp` can be reflected towards the viewer (a diffuse or specular
+/// term): only then are shadow rays traced.
+#[inline]
+fn is_lit(sp: &SurfacePoint, m: &Material) -> bool {
+    sp.albedo != Vec3::ZERO || m.specular != Vec3::ZERO
+}
+
+/// The shadow ray from `origin` (the hit point moved off the surface) towards the light of
+/// `inc`, ending just short of a light at a finite distance; `None` when the light is behind
+/// the surface (self-shadowed without a ray).
+#[inline]
+fn shadow_ray(sp: &SurfacePoint, origin: Vec3, inc: &Incidence) -> Option<Ray> {
+    let cos = sp.ns.dot(inc.to_light);
+    if cos <= 0.0 || sp.ng.dot(inc.to_light) <= 0.0 {
+        return None;
+    }
+    Some(if inc.distance.is_finite() {
+        let to = (sp.p + inc.distance * inc.to_light) - origin;
+        let d = to.length();
+        Ray::segment(origin, to / d, 0.0, d * SHADOW_TFAR_SCALE)
+    } else {
+        Ray::new(origin, inc.to_light)
+    })
+}
+
+/// Adds the light of an unoccluded `inc` reflected at `sp` towards `wo` to `l` (and its
+/// diffuse and specular terms to `split`): `(ρ/π + k_s·K(n)·(n·h)^n) · E · cosθ`.
+#[inline]
+fn add_direct(sp: &SurfacePoint, m: &Material, wo: Vec3, inc: &Incidence, l: &mut Vec3, split: Option<&mut Radiance>) {
+    let cos = sp.ns.dot(inc.to_light);
+    let lambert = optics::lambert(sp.albedo);
+    let mut brdf = lambert;
+    let mut highlight = Vec3::ZERO;
+    if m.specular != Vec3::ZERO {
+        let h = (inc.to_light + wo).normalize_or_zero();
+        highlight = m.specular * optics::blinn_phong(sp.ns.dot(h), m.shininess);
+        brdf += highlight;
+    }
+    *l += brdf * inc.normal_irradiance * cos;
+    if let Some(split) = split {
+        split.diffuse += lambert * inc.normal_irradiance * cos;
+        split.specular += highlight * inc.normal_irradiance * cos;
+    }
+}
+
+/// The reusable buffers of one tile's shadow-ray batches.
+#[derive(Default)]
+struct ShadowBatch {
+    /// Per pixel: the shadow rays' origin, when its hit is lit.
+    origins: Vec<Option<Vec3>>,
+    rays: Vec<Ray>,
+    /// Per ray: the pixel it belongs to and the light's incidence there.
+    owners: Vec<(usize, Incidence)>,
+    occluded: Vec<bool>,
 }
