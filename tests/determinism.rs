@@ -1,5 +1,6 @@
 //! Determinism and antialiasing: the same film for any thread count, `spp = 1` is the lecture's
-//! pixel-centre ray, and `spp = 4` averages four distinct stratified, reproducible samples.
+//! pixel-centre ray, `spp = 4` averages four distinct stratified, reproducible samples, and a
+//! tile's rays traced in batches give the bits of its rays shaded one by one.
 
 mod common;
 
@@ -128,4 +129,47 @@ fn four_samples_are_four_distinct_stratified_positions_averaged() {
     // Rendering again gives the same film.
     let (again, _) = integrator::render(&scene, &accel, &|_| {}).unwrap();
     assert!(common::same_bits(&film, &again));
+}
+
+#[test]
+fn the_cornell_box_renders_as_its_camera_rays_shaded_one_by_one() {
+    // Triangles, an area light sampled 4 times, a mirror and a glass sphere, 2 spp. The
+    // renderer traces the shadow rays of a tile's camera hits light sample by light sample as
+    // one batch (Embree: 8-wide packets); every pixel must still be exactly what shading its
+    // camera rays one at a time gives: the same light samples, sums in the same order, the
+    // same depth.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+    let mut scene = strahl::scene::file::load(&path).unwrap_or_else(|e| panic!("{e}")).scene;
+    let (w, h, spp) = (40u32, 30u32, 2u32);
+    (scene.image.width, scene.image.height, scene.image.spp) = (w, h, spp);
+    assert!(!scene.area_lights.is_empty());
+    scene.area_lights[0].samples = 4;
+    let accel = common::accel(&scene);
+    let (film, counts) = integrator::render(&scene, &accel, &|_| {}).unwrap();
+    let camera = Camera::new(&scene.camera, w, h).unwrap();
+    let whitted = Whitted::new(&scene, &accel, camera);
+    let mut by_hand = RayCounts::default();
+    for y in 0..h {
+        for x in 0..w {
+            let index = (y * w + x) as u64;
+            let mut offsets = sampler::PixelSampler::new(spp, index);
+            let mut dims = SampleDims::new(spp, index, true, false);
+            let (mut sum, mut nearest) = (Vec3::ZERO, f32::INFINITY);
+            for s in 0..spp {
+                dims.begin(s);
+                let ray = camera.ray(x, y, offsets.next_offset());
+                let hit = accel.intersect(&ray).unwrap();
+                let (rgb, first) = whitted.shade_primary(&ray, hit.as_ref(), &mut dims, &mut by_hand).unwrap();
+                sum += rgb;
+                nearest = nearest.min(first.map_or(f32::INFINITY, |f| f.t));
+            }
+            let mean = sum / spp as f32;
+            let i = film.index(x, y);
+            assert_eq!(film.rgba[i], [mean.x, mean.y, mean.z, 1.0], "pixel ({x}, {y})");
+            assert_eq!(film.depth[i].to_bits(), nearest.to_bits(), "depth of pixel ({x}, {y})");
+        }
+    }
+    by_hand.primary = (w * h * spp) as u64;
+    assert_eq!(counts, by_hand);
+    assert!(counts.shadow > 2 * counts.primary && counts.reflected > 0 && counts.refracted > 0, "{counts:?}");
 }
