@@ -64,8 +64,10 @@ impl Aabb {
         self.min.cmpgt(self.max).any()
     }
 
+    /// The box's size per axis; 0 for an empty box (`min > max`, as [`Aabb::EMPTY`] is: its
+    /// `max − min` is −∞). Branch-free: the BVH build's split search calls it for every bin.
     pub fn extent(&self) -> Vec3 {
-        if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
+        (self.max - self.min).max(Vec3::ZERO)
     }
 
     pub fn centroid(&self) -> Vec3 {
