@@ -509,7 +509,10 @@ impl<'a, A: Accel> Whitted<'a, A> {
         let mut counts = RayCounts::default();
         let mut rays = Vec::with_capacity(pixels.len());
         let mut hits = vec![None; pixels.len()];
-        let mut primary = Vec::with_capacity(pixels.len());
+        // Written in place every round (a 160-byte value returned per pixel cost a memcpy call).
+        let mut primary: Vec<PrimaryShading> = (0..pixels.len())
+            .map(|_| PrimaryShading { sp: None, radiance: Vec3::ZERO, split: Radiance::default() })
+            .collect();
         let mut batch = ShadowBatch::default();
         for sample in 0..spp {
             // 1. Ray generation.
@@ -524,8 +527,9 @@ impl<'a, A: Accel> Whitted<'a, A> {
             self.accel.intersect_batch(&rays, &mut hits)?;
             // 3. Shading: emission, then direct light with the shadow rays towards each light
             // (sample) traced as one batch, then reflection and refraction pixel by pixel.
-            primary.clear();
-            primary.extend(rays.iter().zip(&hits).map(|(ray, hit)| self.shade_emission(ray, hit.as_ref())));
+            for ((ray, hit), p) in rays.iter().zip(&hits).zip(&mut primary) {
+                self.shade_emission(ray, hit.as_ref(), p);
+            }
             self.direct_batch(&rays, &mut primary, &mut dims, &mut counts, &mut batch)?;
             for ((((ray, hit), acc), d), p) in
                 rays.iter().zip(&hits).zip(&mut accumulators).zip(&mut dims).zip(&mut primary)
@@ -659,21 +663,20 @@ impl<'a, A: Accel> Whitted<'a, A> {
         l
     }
 
-    /// A camera ray's shading before its direct light: the background when it hits nothing,
-    /// else its surface point and [`Whitted::emission`].
-    fn shade_emission(&self, ray: &Ray, hit: Option<&Hit>) -> PrimaryShading {
+    /// A camera ray's shading before its direct light, into `out` (every field): the
+    /// background when it hits nothing, else its surface point and [`Whitted::emission`].
+    fn shade_emission(&self, ray: &Ray, hit: Option<&Hit>, out: &mut PrimaryShading) {
         let Some(hit) = hit else {
             let background = self.background();
-            return PrimaryShading {
-                sp: None,
-                radiance: background,
-                split: Radiance { background, ..Default::default() },
-            };
+            out.sp = None;
+            out.radiance = background;
+            out.split = Radiance { background, ..Default::default() };
+            return;
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
-        let mut split = Radiance::default();
-        let radiance = self.emission(&sp, Some(&mut split));
-        PrimaryShading { sp: Some(sp), radiance, split }
+        out.split = Radiance::default();
+        out.radiance = self.emission(&sp, Some(&mut out.split));
+        out.sp = Some(sp);
     }
 
     /// The direct light at the camera rays' hits, light (sample) by light: the shadow rays of
