@@ -288,6 +288,8 @@ scale = [1, -0.8, 1]
     let t = b.meshes[1].indices.len();
     let out = common::strahl(&["info", dir.write("a.toml", &instanced).to_str().unwrap()]);
     let stdout = common::text(&out.stdout);
+    // The scene's meshes are all prototypes: none of its triangles lie outside the instances.
+    assert!(stdout.contains("\ntriangles: 0 outside instances\n"), "{stdout}");
     assert!(stdout.contains(&format!("instances: 2 of 1 prototypes ({t} prototype triangles)\n")), "{stdout}");
     assert!(stdout.contains(&format!("unique triangles: {t}\ninstanced triangles: {}\n", 2 * t)), "{stdout}");
     for (backend, x, y) in

@@ -58,7 +58,9 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
         format!("min {:.4} max {:.4} (meshes and spheres; planes are unbounded)", bounds.min, bounds.max)
     };
     let dropped: usize = objects.iter().map(|o| o.degenerate_dropped).sum();
-    lines.extend([format!("objects: {}", objects.len()), format!("triangles: {}", scene.triangle_count())]);
+    // With instances, the meshes' own triangles are only part of the picture: say so.
+    let outside = if scene.instances.is_empty() { "" } else { " outside instances" };
+    lines.extend([format!("objects: {}", objects.len()), format!("triangles: {}{outside}", scene.triangle_count())]);
     if !scene.instances.is_empty() {
         // Unique: stored once (meshes and prototypes); instanced: what rays see.
         lines.extend([
