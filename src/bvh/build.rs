@@ -91,7 +91,7 @@ pub fn build(refs: &mut [PrimRef], options: &Options) -> Option<Node2> {
         return None;
     }
     let options = Options { max_leaf: options.max_leaf.clamp(1, MAX_LEAF), ..*options };
-    Some(build_node(refs, 0, 0, &options))
+    Some(build_node(refs, 0, 0, &options, None))
 }
 
 /// Rounds a primitive count up to whole 4-wide blocks.
@@ -125,6 +125,13 @@ impl Summary {
             centroids: s.centroids.grow(r.centroid()),
             spheres: s.spheres + r.is_sphere as usize,
         })
+    }
+
+    #[inline]
+    fn add(&mut self, r: &PrimRef) {
+        self.bounds = self.bounds.union(r.bounds);
+        self.centroids = self.centroids.grow(r.centroid());
+        self.spheres += r.is_sphere as usize;
     }
 
     fn merge(a: Summary, b: Summary) -> Summary {
@@ -213,6 +220,25 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
     best
 }
 
+/// [`partition`], also summarising both sides as it goes (one pass over the refs instead of
+/// two: the children of a small node need no [`Summary::of`] of their own).
+fn partition_summarised(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Summary, Summary) {
+    let (mut ls, mut rs) = (Summary::EMPTY, Summary::EMPTY);
+    let mut i = 0;
+    let mut j = refs.len();
+    while i < j {
+        if left(&refs[i]) {
+            ls.add(&refs[i]);
+            i += 1;
+        } else {
+            j -= 1;
+            refs.swap(i, j);
+            rs.add(&refs[j]);
+        }
+    }
+    (i, ls, rs)
+}
+
 /// Moves the refs for which `left` holds to the front; returns how many there are.
 fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {
     let mut i = 0;
@@ -228,12 +254,14 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {
     i
 }
 
-fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Options) -> Node2 {
+/// Builds the node over `refs` (at `offset` in the whole list), given their summary when the
+/// parent computed it while partitioning.
+fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Options, known: Option<Summary>) -> Node2 {
     let n = refs.len();
-    let summary = if n > PARALLEL {
-        refs.par_chunks(CHUNK).map(Summary::of).reduce(|| Summary::EMPTY, Summary::merge)
-    } else {
-        Summary::of(refs)
+    let summary = match known {
+        Some(s) => s,
+        None if n > PARALLEL => refs.par_chunks(CHUNK).map(Summary::of).reduce(|| Summary::EMPTY, Summary::merge),
+        None => Summary::of(refs),
     };
     let bounds = summary.bounds;
     let mixed = summary.spheres != 0 && summary.spheres != n;
@@ -258,22 +286,33 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
     if !mixed && n <= max_leaf && split.as_ref().is_none_or(|s| leaf_cost <= s.0) {
         return leaf();
     }
-    let mid = match split {
-        // A leaf of mixed kinds must be split by kind first.
-        _ if mixed && n <= max_leaf => partition(refs, |r| !r.is_sphere),
-        Some((_, axis, plane, binning)) => partition(refs, |r| binning.bin(r.centroid(), axis) < plane),
-        // All centroids coincide, or the tree is deep: split by kind, else in the middle.
-        None if mixed => partition(refs, |r| !r.is_sphere),
-        None => n / 2,
+    // Large nodes partition alone and let each child summarise itself in parallel; small ones
+    // summarise the children while partitioning.
+    let part = |refs: &mut [PrimRef], left: &dyn Fn(&PrimRef) -> bool| {
+        if n > PARALLEL {
+            (partition(refs, left), None)
+        } else {
+            let (mid, l, r) = partition_summarised(refs, left);
+            (mid, Some((l, r)))
+        }
     };
+    let (mid, sides) = match split {
+        // A leaf of mixed kinds must be split by kind first.
+        _ if mixed && n <= max_leaf => part(refs, &|r| !r.is_sphere),
+        Some((_, axis, plane, binning)) => part(refs, &|r| binning.bin(r.centroid(), axis) < plane),
+        // All centroids coincide, or the tree is deep: split by kind, else in the middle.
+        None if mixed => part(refs, &|r| !r.is_sphere),
+        None => (n / 2, None),
+    };
+    let (ls, rs) = (sides.map(|s| s.0), sides.map(|s| s.1));
     let (left, right) = refs.split_at_mut(mid);
     let (l, r) = if n > PARALLEL {
         rayon::join(
-            || build_node(left, offset, depth + 1, options),
-            || build_node(right, offset + mid, depth + 1, options),
+            || build_node(left, offset, depth + 1, options, ls),
+            || build_node(right, offset + mid, depth + 1, options, rs),
         )
     } else {
-        (build_node(left, offset, depth + 1, options), build_node(right, offset + mid, depth + 1, options))
+        (build_node(left, offset, depth + 1, options, ls), build_node(right, offset + mid, depth + 1, options, rs))
     };
     Node2::Inner { bounds, children: Box::new([l, r]) }
 }
