@@ -10,6 +10,8 @@
 
 use rayon::prelude::*;
 
+use glam::Vec3A;
+
 use crate::math::{Aabb, Vec3};
 
 /// Centroid bins per axis.
@@ -100,13 +102,23 @@ fn blocks(n: usize) -> f32 {
     n.div_ceil(4) as f32
 }
 
+/// A bin's box in glam's 16-byte `Vec3A` (one SIMD min and one max per union, where `Vec3`
+/// takes three scalar ones each; binning is the build's hottest loop), and its count.
 #[derive(Clone, Copy)]
 struct Bin {
-    bounds: Aabb,
+    min: Vec3A,
+    max: Vec3A,
     count: u32,
 }
 
-const EMPTY_BIN: Bin = Bin { bounds: Aabb::EMPTY, count: 0 };
+impl Bin {
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        Aabb { min: self.min.into(), max: self.max.into() }
+    }
+}
+
+const EMPTY_BIN: Bin = Bin { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY), count: 0 };
 
 /// Node bounds, centroid bounds and the number of spheres of a range of primitives.
 #[derive(Clone, Copy)]
@@ -171,9 +183,11 @@ fn bin_refs(refs: &[PrimRef], binning: &Binning) -> Bins {
     let mut bins = [[EMPTY_BIN; BINS]; 3];
     for r in refs {
         let c = r.centroid();
+        let (min, max) = (Vec3A::from(r.bounds.min), Vec3A::from(r.bounds.max));
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             let b = &mut axis_bins[binning.bin(c, axis)];
-            b.bounds = b.bounds.union(r.bounds);
+            b.min = b.min.min(min);
+            b.max = b.max.max(max);
             b.count += 1;
         }
     }
@@ -183,7 +197,8 @@ fn bin_refs(refs: &[PrimRef], binning: &Binning) -> Bins {
 fn merge_bins(mut a: Bins, b: Bins) -> Bins {
     for (axis_a, axis_b) in a.iter_mut().zip(b.iter()) {
         for (x, y) in axis_a.iter_mut().zip(axis_b.iter()) {
-            x.bounds = x.bounds.union(y.bounds);
+            x.min = x.min.min(y.min);
+            x.max = x.max.max(y.max);
             x.count += y.count;
         }
     }
@@ -199,14 +214,14 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
         let mut right_count = [0usize; BINS];
         let (mut acc, mut n) = (Aabb::EMPTY, 0);
         for i in (1..BINS).rev() {
-            acc = acc.union(bins[i].bounds);
+            acc = acc.union(bins[i].bounds());
             n += bins[i].count as usize;
             right_area[i] = acc.area();
             right_count[i] = n;
         }
         let (mut acc, mut n) = (Aabb::EMPTY, 0);
         for i in 1..BINS {
-            acc = acc.union(bins[i - 1].bounds);
+            acc = acc.union(bins[i - 1].bounds());
             n += bins[i - 1].count as usize;
             if n == 0 || right_count[i] == 0 {
                 continue;
