@@ -111,13 +111,6 @@ struct Bin {
     count: u32,
 }
 
-impl Bin {
-    #[inline]
-    fn bounds(&self) -> Aabb {
-        Aabb { min: self.min.into(), max: self.max.into() }
-    }
-}
-
 const EMPTY_BIN: Bin = Bin { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY), count: 0 };
 
 /// Node bounds, centroid bounds and the number of spheres of a range of primitives.
@@ -205,6 +198,13 @@ fn merge_bins(mut a: Bins, b: Bins) -> Bins {
     a
 }
 
+/// Surface area of the box `min..max` held as `Vec3A`; 0 when empty (as [`Aabb::area`]).
+#[inline]
+fn area(min: Vec3A, max: Vec3A) -> f32 {
+    let e = (max - min).max(Vec3A::ZERO);
+    2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+}
+
 /// The cheapest split: `(cost, axis, bins left of the plane)`, relative to the node's area.
 fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
     let mut best: Option<(f32, usize, usize)> = None;
@@ -212,21 +212,21 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
         // Right-to-left sweep: area and count of everything right of each plane.
         let mut right_area = [0.0f32; BINS];
         let mut right_count = [0usize; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
         for i in (1..BINS).rev() {
-            acc = acc.union(bins[i].bounds());
+            (min, max) = (min.min(bins[i].min), max.max(bins[i].max));
             n += bins[i].count as usize;
-            right_area[i] = acc.area();
+            right_area[i] = area(min, max);
             right_count[i] = n;
         }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
         for i in 1..BINS {
-            acc = acc.union(bins[i - 1].bounds());
+            (min, max) = (min.min(bins[i - 1].min), max.max(bins[i - 1].max));
             n += bins[i - 1].count as usize;
             if n == 0 || right_count[i] == 0 {
                 continue;
             }
-            let cost = acc.area() * blocks(n) + right_area[i] * blocks(right_count[i]);
+            let cost = area(min, max) * blocks(n) + right_area[i] * blocks(right_count[i]);
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, i));
             }
