@@ -31,6 +31,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use crate::film::Film;
+use crate::io::read::open_regular;
 use crate::region::{Region, TILE_SIZE};
 use crate::scene::Scene;
 use crate::scene::hash::{Fnv1a, scene_hash_hex};
@@ -142,13 +143,9 @@ impl<W: Write> Write for Hashing<'_, W> {
 pub fn read_into(path: &Path, key: &str, tiles: &[Region], film: &mut Film) -> Result<Vec<usize>, CheckpointError> {
     let err = |problem: String| CheckpointError { path: path.to_path_buf(), problem };
     let damaged = |what: &str| err(format!("a damaged checkpoint ({what}); delete it to render from the start"));
-    let cannot = |e: io::Error| err(format!("cannot read the checkpoint: {e}"));
-    // Checked before opening: opening a FIFO would wait for a writer.
-    if !std::fs::metadata(path).map_err(cannot)?.is_file() {
-        return Err(err("is not a regular file".into()));
-    }
-    let file = std::fs::File::open(path).map_err(cannot)?;
-    let length = file.metadata().map_err(cannot)?.len();
+    // Only a regular file (opening a FIFO would wait for a writer); any size, as it is streamed.
+    let (file, length) =
+        open_regular(path, u64::MAX, "").map_err(|e| err(format!("cannot read the checkpoint: {e}")))?;
     let mut r = Reader { inner: io::BufReader::with_capacity(1 << 20, file), hash: Fnv1a::default(), at: 0 };
     let mut magic = [0u8; 8];
     if length < MAGIC.len() as u64 + 8 || r.fill(&mut magic).is_none() || &magic != MAGIC {

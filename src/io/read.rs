@@ -121,10 +121,10 @@ fn kind(file_type: std::fs::FileType) -> &'static str {
     if file_type.is_dir() { "directory" } else { "special file" }
 }
 
-/// The bytes of the regular file at `path`, at most `limit_bytes` of them (`hint` is appended
-/// to the message of a file over the limit). Refuses anything but a regular file before
-/// opening it.
-pub fn read_regular(path: &Path, limit_bytes: u64, hint: &'static str) -> Result<Vec<u8>, ReadError> {
+/// The regular file at `path`, opened, and its length (no larger than `limit_bytes`; `hint`
+/// is appended to the message of a file over it). Refuses anything but a regular file before
+/// opening it, and checks again what was opened (the path may have been replaced between).
+pub fn open_regular(path: &Path, limit_bytes: u64, hint: &'static str) -> Result<(File, u64), ReadError> {
     let meta = std::fs::metadata(path).map_err(ReadError::Io)?;
     if !meta.is_file() {
         return Err(ReadError::NotRegular(kind(meta.file_type())));
@@ -133,13 +133,20 @@ pub fn read_regular(path: &Path, limit_bytes: u64, hint: &'static str) -> Result
         return Err(ReadError::TooLarge { size_bytes: meta.len(), limit_bytes, hint });
     }
     let file = File::open(path).map_err(ReadError::Io)?;
-    note_input(path);
-    // The path may have been replaced between the stat and the open: check what was opened.
     let meta = file.metadata().map_err(ReadError::Io)?;
     if !meta.is_file() {
         return Err(ReadError::NotRegular(kind(meta.file_type())));
     }
-    let mut data = Vec::with_capacity(meta.len().min(limit_bytes) as usize);
+    Ok((file, meta.len()))
+}
+
+/// The bytes of the regular file at `path`, at most `limit_bytes` of them (`hint` is appended
+/// to the message of a file over the limit), opened by [`open_regular`] and remembered as an
+/// input.
+pub fn read_regular(path: &Path, limit_bytes: u64, hint: &'static str) -> Result<Vec<u8>, ReadError> {
+    let (file, length) = open_regular(path, limit_bytes, hint)?;
+    note_input(path);
+    let mut data = Vec::with_capacity(length.min(limit_bytes) as usize);
     file.take(limit_bytes.saturating_add(1)).read_to_end(&mut data).map_err(ReadError::Io)?;
     if data.len() as u64 > limit_bytes {
         return Err(ReadError::TooLarge { size_bytes: data.len() as u64, limit_bytes, hint });
