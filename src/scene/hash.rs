@@ -12,7 +12,8 @@ use std::fmt::Write as _;
 
 use super::Scene;
 
-/// 64-bit FNV-1a, fed bytes and formatted text.
+/// 64-bit FNV-1a, fed bytes and formatted text (also the checksum of checkpoints, fed as they
+/// are written and read).
 pub struct Fnv1a(u64);
 
 impl Default for Fnv1a {
@@ -40,13 +41,6 @@ impl std::fmt::Write for Fnv1a {
         self.bytes(s.as_bytes());
         Ok(())
     }
-}
-
-/// 64-bit FNV-1a of `bytes` (a checksum for strahl's own files, e.g. checkpoints).
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h = Fnv1a::default();
-    h.bytes(bytes);
-    h.0
 }
 
 /// The fingerprint of `scene` (see the module docs).
