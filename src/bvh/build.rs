@@ -235,38 +235,42 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
     best
 }
 
-/// [`partition`], also summarising both sides as it goes (one pass over the refs instead of
-/// two: the children of a small node need no [`Summary::of`] of their own).
-fn partition_summarised(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Summary, Summary) {
+/// Moves the refs for which `left` holds to the front; returns how many there are and, when
+/// `SUMMARISE`, the summaries of both sides, made as it goes (one pass over the refs instead
+/// of two: the children need no [`Summary::of`] of their own). Without it both are empty.
+fn partition<const SUMMARISE: bool>(
+    refs: &mut [PrimRef],
+    left: impl Fn(&PrimRef) -> bool,
+) -> (usize, Summary, Summary) {
     let (mut ls, mut rs) = (Summary::EMPTY, Summary::EMPTY);
     let mut i = 0;
     let mut j = refs.len();
     while i < j {
         if left(&refs[i]) {
-            ls.add(&refs[i]);
+            if SUMMARISE {
+                ls.add(&refs[i]);
+            }
             i += 1;
         } else {
             j -= 1;
             refs.swap(i, j);
-            rs.add(&refs[j]);
+            if SUMMARISE {
+                rs.add(&refs[j]);
+            }
         }
     }
     (i, ls, rs)
 }
 
-/// Moves the refs for which `left` holds to the front; returns how many there are.
-fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {
-    let mut i = 0;
-    let mut j = refs.len();
-    while i < j {
-        if left(&refs[i]) {
-            i += 1;
-        } else {
-            j -= 1;
-            refs.swap(i, j);
-        }
+/// A node's partition: nodes of more than [`PARALLEL`] refs partition alone and let each child
+/// summarise itself in parallel; smaller ones summarise the children while partitioning.
+fn partition_node(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Option<(Summary, Summary)>) {
+    if refs.len() > PARALLEL {
+        (partition::<false>(refs, left).0, None)
+    } else {
+        let (mid, l, r) = partition::<true>(refs, left);
+        (mid, Some((l, r)))
     }
-    i
 }
 
 /// Builds the node over `refs` (at `offset` in the whole list), given their summary when the
@@ -301,22 +305,12 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
     if !mixed && n <= max_leaf && split.as_ref().is_none_or(|s| leaf_cost <= s.0) {
         return leaf();
     }
-    // Large nodes partition alone and let each child summarise itself in parallel; small ones
-    // summarise the children while partitioning.
-    let part = |refs: &mut [PrimRef], left: &dyn Fn(&PrimRef) -> bool| {
-        if n > PARALLEL {
-            (partition(refs, left), None)
-        } else {
-            let (mid, l, r) = partition_summarised(refs, left);
-            (mid, Some((l, r)))
-        }
-    };
     let (mid, sides) = match split {
         // A leaf of mixed kinds must be split by kind first.
-        _ if mixed && n <= max_leaf => part(refs, &|r| !r.is_sphere),
-        Some((_, axis, plane, binning)) => part(refs, &|r| binning.bin(r.centroid(), axis) < plane),
+        _ if mixed && n <= max_leaf => partition_node(refs, |r| !r.is_sphere),
+        Some((_, axis, plane, binning)) => partition_node(refs, |r| binning.bin(r.centroid(), axis) < plane),
         // All centroids coincide, or the tree is deep: split by kind, else in the middle.
-        None if mixed => part(refs, &|r| !r.is_sphere),
+        None if mixed => partition_node(refs, |r| !r.is_sphere),
         None => (n / 2, None),
     };
     let (ls, rs) = (sides.map(|s| s.0), sides.map(|s| s.1));
