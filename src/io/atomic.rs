@@ -139,10 +139,7 @@ pub fn commit_all(mut files: Vec<Staged>) -> Result<(), WriteError> {
         // it before renaming any.
         if let Some(f) = files.iter().find(|f| f.path.is_dir()) {
             let path = f.path.clone();
-            for f in &mut files {
-                fs::remove_file(&f.tmp).ok();
-                f.done = true;
-            }
+            discard(&mut files);
             return Err(WriteError::new(&path, "cannot write: is a directory"));
         }
         // The old versions of the files renamed after the first go first (see the module
@@ -151,10 +148,7 @@ pub fn commit_all(mut files: Vec<Staged>) -> Result<(), WriteError> {
             match fs::remove_file(&files[i].path) {
                 Err(e) if e.kind() != io::ErrorKind::NotFound => {
                     let path = files[i].path.clone();
-                    for f in &mut files {
-                        fs::remove_file(&f.tmp).ok();
-                        f.done = true;
-                    }
+                    discard(&mut files);
                     return Err(WriteError::new(&path, format!("cannot replace: {e}")));
                 }
                 _ => {}
@@ -168,10 +162,7 @@ pub fn commit_all(mut files: Vec<Staged>) -> Result<(), WriteError> {
             }
             if let Err(e) = fs::rename(&files[i].tmp, &files[i].path) {
                 // This one and the rest are removed here, still under the lock.
-                for rest in &mut files[i..] {
-                    fs::remove_file(&rest.tmp).ok();
-                    rest.done = true;
-                }
+                discard(&mut files[i..]);
                 return Err(WriteError::new(&files[i].path, format!("cannot write: {e}")));
             }
             files[i].done = true;
@@ -179,6 +170,15 @@ pub fn commit_all(mut files: Vec<Staged>) -> Result<(), WriteError> {
         Ok(())
     })?;
     Ok(())
+}
+
+/// Removes the temporaries of `files` at once, under the signal registry's lock that
+/// [`commit_all`] holds (their drop would take it again).
+fn discard(files: &mut [Staged]) {
+    for f in files {
+        fs::remove_file(&f.tmp).ok();
+        f.done = true;
+    }
 }
 
 #[cfg(test)]
