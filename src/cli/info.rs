@@ -32,15 +32,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let mut loaded = super::load_scene(&args.scene)?;
     let load_seconds = start.elapsed().as_secs_f64();
     // The size and passes a render would be given, for the memory estimate.
-    let image = &mut loaded.scene.image;
-    image.width = args.width.unwrap_or(image.width);
-    image.height = args.height.unwrap_or(image.height);
-    if let Some((_, problem)) = strahl::scene::file::image_problem(image) {
-        anyhow::bail!("{}: with the command-line settings: {problem}", args.scene.display());
-    }
+    super::override_image(&args.scene, &mut loaded.scene.image, [args.width, args.height, None, None])?;
     if let Some(passes) = &args.passes {
-        loaded.scene.output.passes =
-            strahl::passes::PassSet::parse(passes).map_err(|m| anyhow::anyhow!("--passes: {m}"))?;
+        loaded.scene.output.passes = super::parse_passes(passes)?;
     }
     print!("{}", describe(&args.scene.display().to_string(), &loaded, load_seconds));
     Ok(())

@@ -93,6 +93,29 @@ fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
     load_scene_with_camera(path, None)
 }
 
+/// The image settings of the command line (`--width`, `--height`, `--spp`, `--depth`; `None`
+/// keeps the scene's) applied to `image` of the scene at `path`, checked as the scene file's
+/// own are ([`strahl::scene::file::image_problem`]).
+fn override_image(
+    path: &Path,
+    image: &mut strahl::scene::ImageSpec,
+    [width, height, spp, depth]: [Option<u32>; 4],
+) -> anyhow::Result<()> {
+    image.width = width.unwrap_or(image.width);
+    image.height = height.unwrap_or(image.height);
+    image.spp = spp.unwrap_or(image.spp);
+    image.max_depth = depth.unwrap_or(image.max_depth);
+    if let Some((_, problem)) = strahl::scene::file::image_problem(image) {
+        anyhow::bail!("{}: with the command-line settings: {problem}", path.display());
+    }
+    Ok(())
+}
+
+/// The passes of `--passes LIST`.
+fn parse_passes(list: &[String]) -> anyhow::Result<strahl::passes::PassSet> {
+    strahl::passes::PassSet::parse(list).map_err(|m| anyhow::anyhow!("--passes: {m}"))
+}
+
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).
 const MAX_RAYS: u64 = 20_000_000;
 

@@ -32,10 +32,9 @@ use strahl::io::atomic::{directory_of, write_atomically_with};
 use strahl::io::exr::{Compression, ExrOptions, Layout};
 use strahl::io::metadata::RenderInfo;
 use strahl::io::same_file::same_file;
-use strahl::passes::{MAX_CRYPTO_LEVELS, PassSet};
+use strahl::passes::MAX_CRYPTO_LEVELS;
 use strahl::region::Region;
 use strahl::scene::Scene;
-use strahl::scene::file::image_problem;
 
 /// Arguments of `strahl render`.
 #[derive(Args, Debug)]
@@ -215,14 +214,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
     refuse_inputs_as_outputs(&args)?;
     let mut scene = loaded.scene;
-    let image = &mut scene.image;
-    image.width = args.width.unwrap_or(image.width);
-    image.height = args.height.unwrap_or(image.height);
-    image.spp = args.spp.unwrap_or(image.spp);
-    image.max_depth = args.depth.unwrap_or(image.max_depth);
-    if let Some((_, problem)) = image_problem(image) {
-        bail!("{}: with the command-line settings: {problem}", args.scene.display());
-    }
+    super::override_image(&args.scene, &mut scene.image, [args.width, args.height, args.spp, args.depth])?;
     let image = scene.image;
     let region = match (&args.region, &args.tile) {
         (Some(text), _) => {
@@ -237,7 +229,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (None, None) => Region::full(image.width, image.height),
     };
     if let Some(passes) = &args.passes {
-        scene.output.passes = PassSet::parse(passes).map_err(|m| anyhow::anyhow!("--passes: {m}"))?;
+        scene.output.passes = super::parse_passes(passes)?;
     }
     scene.output.transparent |= args.transparent;
     scene.output.crypto_levels = args.cryptomatte_levels.unwrap_or(scene.output.crypto_levels);
