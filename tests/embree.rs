@@ -313,8 +313,11 @@ fn a_panic_in_a_callback_becomes_an_error_not_an_unwind() {
     b.add_spheres("ball", &[Sphere { center: Vec3::ZERO, radius: 1.0, material: 0 }]).unwrap();
     let s = b.commit().unwrap();
     let ray = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
-    for result in [s.intersect(&ray).map(|_| ()), s.occluded(&ray).map(|_| ()), s.intersect8(&[ray; 3], &mut [None; 3])]
-    {
+    for result in [
+        s.intersect(&ray).map(|_| ()),
+        s.occluded(&ray).map(|_| ()),
+        s.intersect_packets(&[ray; 3], &mut [None; 3], |_, hit| hit),
+    ] {
         match result {
             Err(Error::CallbackPanic(m)) => assert!(m.contains("test hook"), "{m}"),
             other => panic!("expected CallbackPanic, got {other:?}"),

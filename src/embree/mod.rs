@@ -128,6 +128,7 @@ impl Accel for EmbreeAccel {
         "embree"
     }
 
+    #[inline(always)]
     fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError> {
         let (clipped, plane_hit) = self.clip_to_planes(ray);
         Ok(self.scene.intersect(&clipped)?.map(|h| self.normals.to_world(h)).or(plane_hit))
@@ -142,6 +143,10 @@ impl Accel for EmbreeAccel {
 
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), TraceError> {
         assert_eq!(rays.len(), hits.len(), "intersect_batch: rays and hits differ in length");
+        if self.planes.is_empty() {
+            // nothing to clip: the rays go to Embree as they are, without a copy
+            return Ok(self.scene.intersect_packets(rays, hits, |_, hit| hit.map(|h| self.normals.to_world(h)))?);
+        }
         let mut clipped = [Ray::new(Default::default(), Default::default()); PACKET_WIDTH];
         let mut plane_hits = [None; PACKET_WIDTH];
         for (rays, hits) in rays.chunks(PACKET_WIDTH).zip(hits.chunks_mut(PACKET_WIDTH)) {
@@ -149,10 +154,9 @@ impl Accel for EmbreeAccel {
             for (i, ray) in rays.iter().enumerate() {
                 (clipped[i], plane_hits[i]) = self.clip_to_planes(ray);
             }
-            self.scene.intersect8(&clipped[..n], hits)?;
-            for (hit, plane_hit) in hits.iter_mut().zip(plane_hits) {
-                *hit = hit.map(|h| self.normals.to_world(h)).or(plane_hit);
-            }
+            self.scene.intersect_packets(&clipped[..n], hits, |lane, hit| {
+                hit.map(|h| self.normals.to_world(h)).or(plane_hits[lane])
+            })?;
         }
         Ok(())
     }

@@ -59,11 +59,17 @@ impl QueryContext {
     /// The query's outcome: a panic caught in a callback, or an error Embree reported.
     #[inline]
     pub(super) fn finish(self, call: &'static str) -> Result<(), Error> {
-        if let Some(message) = self.panic.take() {
-            let _ = take_error(call); // the panic is the cause; drop any follow-on error
-            return Err(Error::CallbackPanic(message));
+        match self.panic.take() {
+            None => take_error(call),
+            Some(message) => Self::panicked(message, call),
         }
-        take_error(call)
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn panicked(message: String, call: &'static str) -> Result<(), Error> {
+        let _ = take_error(call); // the panic is the cause; drop any follow-on error
+        Err(Error::CallbackPanic(message))
     }
 }
 
@@ -380,6 +386,7 @@ impl Scene {
     }
 
     /// The closest hit of `ray` in `(tnear, tfar)` (`rtcIntersect1`).
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, Error> {
         let mut rayhit = sys::RTCRayHit { ray: rtc_ray(ray), hit: empty_hit() };
         let mut ctx = QueryContext::new(false);
@@ -419,54 +426,67 @@ impl Scene {
         Ok(rtc.tfar == f32::NEG_INFINITY)
     }
 
-    /// Closest hits of up to [`PACKET_WIDTH`] coherent rays in one `rtcIntersect8`;
-    /// `hits[i]` answers `rays[i]`.
-    pub fn intersect8(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), Error> {
-        let n = rays.len();
-        if n > PACKET_WIDTH || hits.len() != n {
+    /// Closest hits of coherent rays, [`PACKET_WIDTH`] at a time through `rtcIntersect8`
+    /// (consecutive rays share a packet; the last may be partial), with one query context and
+    /// one error check for the whole call. `hits[i]` answers `rays[i]` as `finish(i, hit)`
+    /// makes it: the caller's last word on a hit, given before it is stored (a hit stored
+    /// and at once reloaded whole to be changed stalls on the store buffer, once per lane).
+    #[inline]
+    pub fn intersect_packets(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        mut finish: impl FnMut(usize, Option<Hit>) -> Option<Hit>,
+    ) -> Result<(), Error> {
+        if hits.len() != rays.len() {
             return Err(Error::InvalidInput {
-                object: "ray packet".into(),
-                problem: format!("{n} rays and {} hits for a packet of {PACKET_WIDTH}", hits.len()),
+                object: "ray packets".into(),
+                problem: format!("{} rays and {} hits", rays.len(), hits.len()),
             });
-        }
-        let mut valid = Valid8([0; 8]);
-        let mut packet = sys::RTCRayHit8::default();
-        for (lane, r) in rays.iter().enumerate() {
-            valid.0[lane] = -1;
-            set_lane(&mut packet.ray, lane, r);
-            let h = &mut packet.hit;
-            h.geomID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
-            h.primID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
-            for level in 0..sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize {
-                h.instID[level][lane] = sys::RTC_INVALID_GEOMETRY_ID;
-            }
         }
         let mut ctx = QueryContext::new(true);
         let ctx_ptr: *mut QueryContext = &mut ctx;
-        // SAFETY: `valid` and `packet` are 32-byte aligned as rtcIntersect8 requires, fully
-        // initialised; inactive lanes are marked 0 in `valid`; the context is as in `intersect`.
-        unsafe {
-            #[cfg(embree3)]
-            sys::rtcIntersect8(valid.0.as_ptr(), self.raw, ctx_ptr.cast(), &mut packet);
-            #[cfg(embree4)]
-            {
-                let mut args = sys::init_intersect_arguments(sys::RTC_RAY_QUERY_FLAG_COHERENT, ctx_ptr.cast());
+        #[cfg(embree4)]
+        let mut args = sys::init_intersect_arguments(sys::RTC_RAY_QUERY_FLAG_COHERENT, ctx_ptr.cast());
+        let mut valid = Valid8([0; PACKET_WIDTH]);
+        let mut packet = sys::RTCRayHit8::default();
+        for (k, (rays, hits)) in rays.chunks(PACKET_WIDTH).zip(hits.chunks_mut(PACKET_WIDTH)).enumerate() {
+            if rays.len() < PACKET_WIDTH {
+                valid.0 = [0; PACKET_WIDTH];
+            }
+            for (lane, r) in rays.iter().enumerate() {
+                valid.0[lane] = -1;
+                set_lane(&mut packet.ray, lane, r);
+                let h = &mut packet.hit;
+                h.geomID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
+                h.primID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
+                for level in 0..sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize {
+                    h.instID[level][lane] = sys::RTC_INVALID_GEOMETRY_ID;
+                }
+            }
+            // SAFETY: `valid` and `packet` are 32-byte aligned as rtcIntersect8 requires and
+            // initialised (zeroed once, active lanes set above, inactive lanes marked 0 in
+            // `valid`); the context is as in `intersect` and outlives the loop.
+            unsafe {
+                #[cfg(embree3)]
+                sys::rtcIntersect8(valid.0.as_ptr(), self.raw, ctx_ptr.cast(), &mut packet);
+                #[cfg(embree4)]
                 sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut packet, &mut args);
             }
+            for (lane, hit) in hits.iter_mut().enumerate() {
+                let h = &packet.hit;
+                let found = (h.geomID[lane] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+                    t: packet.ray.tfar[lane],
+                    ng: Vec3::new(h.Ng_x[lane], h.Ng_y[lane], h.Ng_z[lane]),
+                    u: h.u[lane],
+                    v: h.v[lane],
+                    geom_id: super::instance::hit_geom_id(h.geomID[lane], h.instID[0][lane]),
+                    prim_id: h.primID[lane],
+                });
+                *hit = finish(k * PACKET_WIDTH + lane, found);
+            }
         }
-        ctx.finish("rtcIntersect8")?;
-        for (lane, hit) in hits.iter_mut().enumerate() {
-            let h = &packet.hit;
-            *hit = (h.geomID[lane] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
-                t: packet.ray.tfar[lane],
-                ng: Vec3::new(h.Ng_x[lane], h.Ng_y[lane], h.Ng_z[lane]),
-                u: h.u[lane],
-                v: h.v[lane],
-                geom_id: super::instance::hit_geom_id(h.geomID[lane], h.instID[0][lane]),
-                prim_id: h.primID[lane],
-            });
-        }
-        Ok(())
+        ctx.finish("rtcIntersect8")
     }
 }
 
@@ -519,6 +539,7 @@ fn out_of_memory(what: &str) -> Error {
     Error::Api { call: "rtcSetNewGeometryBuffer", code: sys::RTC_ERROR_OUT_OF_MEMORY, message: format!("no {what}") }
 }
 
+#[inline]
 fn to_hit(rh: &sys::RTCRayHit) -> Option<Hit> {
     (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
         t: rh.ray.tfar,
