@@ -420,14 +420,15 @@ impl Bvh {
     /// right after it is written, stalled store forwarding for 15 % of a miss's time.)
     #[inline]
     fn intersect_tree(&self, ray: &Ray, tfar: f32) -> Option<Hit> {
-        match self.kernel {
+        let found = match self.kernel {
             Traversal::Portable => {
                 let r = TraversalRay::new(ray);
                 self.intersect_by(ray, tfar, &r, &r)
             }
             #[cfg(target_arch = "x86_64")]
             Traversal::Avx2(avx2) => avx2.intersect(self, ray, tfar),
-        }
+        };
+        found.map(|f| self.hit_of(ray, tfar, f))
     }
 
     /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
@@ -446,7 +447,7 @@ impl Bvh {
     /// [`Bvh::intersect_tree`] with the slab test `boxes` (made from `r`): the stack and the
     /// axial variant chosen.
     #[inline(always)]
-    fn intersect_by(&self, ray: &Ray, tfar: f32, r: &TraversalRay, boxes: &impl BoxTest) -> Option<Hit> {
+    fn intersect_by(&self, ray: &Ray, tfar: f32, r: &TraversalRay, boxes: &impl BoxTest) -> Option<Found> {
         match (self.shallow, r.axial) {
             (true, false) => self.intersect_with::<false>(
                 ray,
@@ -487,7 +488,7 @@ impl Bvh {
         tfar: f32,
         r: &impl BoxTest,
         mut stack: impl Stack<(ChildRef, f32)>,
-    ) -> Option<Hit> {
+    ) -> Option<Found> {
         let mut best_t = tfar;
         let mut found = None;
         let mut frame = None;
@@ -569,7 +570,7 @@ impl Bvh {
             // Pop the next subtree the ray may still reach before its closest hit so far.
             loop {
                 let Some((c, entry)) = stack.pop() else {
-                    return found.map(|f| self.hit_of(ray, tfar, f));
+                    return found;
                 };
                 if entry <= best_t * EXIT_SCALE {
                     cur = c;
@@ -637,8 +638,11 @@ impl Bvh {
     }
 }
 
-/// What the closest-hit traversal found.
-enum Found {
+/// What the closest-hit traversal found. The traversal returns this, not the [`Hit`]: the
+/// kernel is a call (the AVX2 one cannot be inlined into its caller), and a [`Hit`] returned
+/// through memory is stored field by field and reloaded whole, which stalls store forwarding
+/// (measured: see `Bvh::intersect`).
+pub(crate) enum Found {
     Triangle { block: usize, lane: usize, hit: triangle::TriangleHit },
     Sphere { index: usize, t: f32 },
 }
@@ -756,6 +760,7 @@ impl Accel for Bvh {
         "native"
     }
 
+    #[inline(always)]
     fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError> {
         if !traceable(ray) {
             return Ok(None);

@@ -18,8 +18,7 @@
 use std::arch::x86_64::*;
 
 use super::node::{ChildRef, Node, WIDTH};
-use super::{BoxTest, Bvh, TraversalRay};
-use crate::accel::Hit;
+use super::{BoxTest, Bvh, Found, TraversalRay};
 use crate::math::Ray;
 
 /// Proof that the CPU runs AVX2: made only by [`Avx2::detect`].
@@ -34,7 +33,7 @@ impl Avx2 {
 
     /// [`Bvh::intersect_tree`] with the AVX2 kernel.
     #[inline]
-    pub fn intersect(self, bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Hit> {
+    pub fn intersect(self, bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Found> {
         // SAFETY: `self` exists, so the CPU has AVX2 (see `detect`).
         unsafe { intersect(bvh, ray, tfar) }
     }
@@ -48,7 +47,7 @@ impl Avx2 {
 }
 
 #[target_feature(enable = "avx2")]
-fn intersect(bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Hit> {
+fn intersect(bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Found> {
     let r = TraversalRay::new(ray);
     bvh.intersect_by(ray, tfar, &r, &Boxes8::new(&r))
 }
