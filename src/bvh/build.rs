@@ -10,9 +10,9 @@
 
 use rayon::prelude::*;
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 
-use crate::math::{Aabb, Vec3};
+use crate::math::Aabb;
 
 /// Centroid bins per axis.
 pub const BINS: usize = 32;
@@ -49,24 +49,56 @@ const PARALLEL: usize = 4096;
 /// Chunk of primitives per rayon task when binning.
 const CHUNK: usize = 16 * 1024;
 
-/// A primitive as the build sees it (32 bytes): its bounds, whether it is a sphere (leaves
-/// hold one kind only), and its index in the caller's list.
+/// A primitive as the build sees it (32 bytes, two aligned SIMD loads): its box's corners in
+/// `lo.xyz` and `hi.xyz`, its index in the caller's list in `lo.w` and whether it is a sphere
+/// (leaves hold one kind only) in `hi.w`, 1 or 0. The index is kept as the bits of a normal
+/// float ([`ID_TAG`]` | id`), so that arithmetic on the whole vector never meets a denormal
+/// (which costs a microcode assist per operation on many CPUs).
 #[derive(Clone, Copy, Debug)]
 pub struct PrimRef {
-    pub bounds: Aabb,
-    pub id: u32,
-    pub is_sphere: bool,
+    lo: Vec4,
+    hi: Vec4,
 }
+
+/// Exponent bits that make an index below [`MAX_ID`] a normal float (exponent 2¹ to 2¹⁶).
+const ID_TAG: u32 = 0x4000_0000;
+/// The largest primitive index a [`PrimRef`] holds.
+pub const MAX_ID: usize = (1 << 27) - 1;
 
 impl PrimRef {
     pub fn new(bounds: Aabb, id: u32, is_sphere: bool) -> Self {
-        PrimRef { bounds, id, is_sphere }
+        debug_assert!(id as usize <= MAX_ID);
+        PrimRef {
+            lo: bounds.min.extend(f32::from_bits(ID_TAG | id)),
+            hi: bounds.max.extend(if is_sphere { 1.0 } else { 0.0 }),
+        }
+    }
+
+    /// The index in the caller's list.
+    #[inline]
+    pub fn id(&self) -> u32 {
+        self.lo.w.to_bits() & MAX_ID as u32
+    }
+
+    #[inline]
+    pub fn is_sphere(&self) -> bool {
+        self.hi.w != 0.0
+    }
+
+    #[inline]
+    fn min(&self) -> Vec3A {
+        Vec3A::from_vec4(self.lo)
+    }
+
+    #[inline]
+    fn max(&self) -> Vec3A {
+        Vec3A::from_vec4(self.hi)
     }
 
     /// The centre of the box (computed where needed: a smaller ref streams faster).
     #[inline]
-    pub fn centroid(&self) -> Vec3 {
-        self.bounds.centroid()
+    fn centroid(&self) -> Vec3A {
+        Vec3A::from_vec4(0.5 * (self.lo + self.hi))
     }
 }
 
@@ -113,78 +145,98 @@ struct Bin {
 
 const EMPTY_BIN: Bin = Bin { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY), count: 0 };
 
-/// Node bounds, centroid bounds and the number of spheres of a range of primitives.
+/// Node bounds, centroid bounds and the number of spheres of a range of primitives, the
+/// boxes as `Vec3A` corners (one SIMD min or max per union).
 #[derive(Clone, Copy)]
 struct Summary {
-    bounds: Aabb,
-    centroids: Aabb,
+    min: Vec3A,
+    max: Vec3A,
+    cmin: Vec3A,
+    cmax: Vec3A,
     spheres: usize,
 }
 
 impl Summary {
-    const EMPTY: Summary = Summary { bounds: Aabb::EMPTY, centroids: Aabb::EMPTY, spheres: 0 };
+    const EMPTY: Summary =
+        Summary { min: EMPTY_BIN.min, max: EMPTY_BIN.max, cmin: EMPTY_BIN.min, cmax: EMPTY_BIN.max, spheres: 0 };
 
     fn of(refs: &[PrimRef]) -> Summary {
-        refs.iter().fold(Summary::EMPTY, |s, r| Summary {
-            bounds: s.bounds.union(r.bounds),
-            centroids: s.centroids.grow(r.centroid()),
-            spheres: s.spheres + r.is_sphere as usize,
-        })
+        let mut s = Summary::EMPTY;
+        for r in refs {
+            s.add(r);
+        }
+        s
     }
 
     #[inline]
     fn add(&mut self, r: &PrimRef) {
-        self.bounds = self.bounds.union(r.bounds);
-        self.centroids = self.centroids.grow(r.centroid());
-        self.spheres += r.is_sphere as usize;
+        let c = r.centroid();
+        self.min = self.min.min(r.min());
+        self.max = self.max.max(r.max());
+        self.cmin = self.cmin.min(c);
+        self.cmax = self.cmax.max(c);
+        self.spheres += r.is_sphere() as usize;
     }
 
     fn merge(a: Summary, b: Summary) -> Summary {
         Summary {
-            bounds: a.bounds.union(b.bounds),
-            centroids: a.centroids.union(b.centroids),
+            min: a.min.min(b.min),
+            max: a.max.max(b.max),
+            cmin: a.cmin.min(b.cmin),
+            cmax: a.cmax.max(b.cmax),
             spheres: a.spheres + b.spheres,
         }
+    }
+
+    fn bounds(&self) -> Aabb {
+        Aabb::new(self.min.into(), self.max.into())
     }
 }
 
 /// Maps centroids to bins along each axis.
 #[derive(Clone, Copy)]
 struct Binning {
-    origin: Vec3,
-    scale: Vec3,
+    origin: Vec3A,
+    scale: Vec3A,
 }
 
 impl Binning {
-    fn new(centroids: Aabb) -> Self {
-        let extent = centroids.extent();
+    fn new(s: &Summary) -> Self {
+        let extent = (s.cmax - s.cmin).max(Vec3A::ZERO);
         // Slightly under BINS/extent so that the far edge falls into the last bin.
         let scale =
-            Vec3::select(extent.cmpgt(Vec3::ZERO), Vec3::splat(BINS as f32 * (1.0 - 1e-6)) / extent, Vec3::ZERO);
-        Binning { origin: centroids.min, scale }
+            Vec3A::select(extent.cmpgt(Vec3A::ZERO), Vec3A::splat(BINS as f32 * (1.0 - 1e-6)) / extent, Vec3A::ZERO);
+        Binning { origin: s.cmin, scale }
+    }
+
+    /// The centroid's position in bin units along each axis (a bin index before truncation).
+    #[inline]
+    fn position(&self, c: Vec3A) -> Vec3A {
+        (c - self.origin) * self.scale
     }
 
     #[inline]
-    fn bin(&self, c: Vec3, axis: usize) -> usize {
-        (((c[axis] - self.origin[axis]) * self.scale[axis]) as usize).min(BINS - 1)
+    fn bin(&self, c: Vec3A, axis: usize) -> usize {
+        (self.position(c)[axis] as usize).min(BINS - 1)
     }
 }
 
 type Bins = [[Bin; BINS]; 3];
 
-fn bin_refs(refs: &[PrimRef], binning: &Binning) -> Bins {
-    let mut bins = [[EMPTY_BIN; BINS]; 3];
+const EMPTY_BINS: Bins = [[EMPTY_BIN; BINS]; 3];
+
+/// Adds `refs` to `bins`.
+fn bin_refs(refs: &[PrimRef], binning: &Binning, bins: &mut Bins) {
     for r in refs {
-        let c = r.centroid();
-        let (min, max) = (Vec3A::from(r.bounds.min), Vec3A::from(r.bounds.max));
+        let p = binning.position(r.centroid());
+        let (min, max) = (r.min(), r.max());
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[binning.bin(c, axis)];
+            let b = &mut axis_bins[(p[axis] as usize).min(BINS - 1)];
             b.min = b.min.min(min);
             b.max = b.max.max(max);
             b.count += 1;
         }
     }
-    bins
 }
 
 fn merge_bins(mut a: Bins, b: Bins) -> Bins {
@@ -206,27 +258,36 @@ fn area(min: Vec3A, max: Vec3A) -> f32 {
 }
 
 /// The cheapest split: `(cost, axis, bins left of the plane)`, relative to the node's area.
+/// Only planes right of an occupied bin are evaluated: a plane right of an empty bin splits
+/// the refs as the plane before it does, at the same cost, and the first of equal costs wins
+/// (so the choice is the same as when every plane is evaluated).
 fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
     let mut best: Option<(f32, usize, usize)> = None;
     for (axis, bins) in bins.iter().enumerate() {
         // Right-to-left sweep: area and count of everything right of each plane.
         let mut right_area = [0.0f32; BINS];
-        let mut right_count = [0usize; BINS];
+        let mut right_count = [0u32; BINS];
         let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
         for i in (1..BINS).rev() {
             (min, max) = (min.min(bins[i].min), max.max(bins[i].max));
-            n += bins[i].count as usize;
-            right_area[i] = area(min, max);
+            n += bins[i].count;
             right_count[i] = n;
+            if bins[i - 1].count != 0 {
+                right_area[i] = area(min, max);
+            }
         }
         let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
         for i in 1..BINS {
-            (min, max) = (min.min(bins[i - 1].min), max.max(bins[i - 1].max));
-            n += bins[i - 1].count as usize;
-            if n == 0 || right_count[i] == 0 {
+            let b = &bins[i - 1];
+            if b.count == 0 {
                 continue;
             }
-            let cost = area(min, max) * blocks(n) + right_area[i] * blocks(right_count[i]);
+            if right_count[i] == 0 {
+                break;
+            }
+            (min, max) = (min.min(b.min), max.max(b.max));
+            n += b.count;
+            let cost = area(min, max) * blocks(n as usize) + right_area[i] * blocks(right_count[i] as usize);
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, i));
             }
@@ -282,7 +343,7 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
         None if n > PARALLEL => refs.par_chunks(CHUNK).map(Summary::of).reduce(|| Summary::EMPTY, Summary::merge),
         None => Summary::of(refs),
     };
-    let bounds = summary.bounds;
+    let bounds = summary.bounds();
     let mixed = summary.spheres != 0 && summary.spheres != n;
     let max_leaf = if summary.spheres == n { options.max_leaf.min(MAX_SPHERE_LEAF) } else { options.max_leaf };
     let leaf = || Node2::Leaf { bounds, start: offset as u32, count: n as u32 };
@@ -290,11 +351,21 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
         return leaf();
     }
     let split = if depth < MAX_SAH_DEPTH {
-        let binning = Binning::new(summary.centroids);
+        let binning = Binning::new(&summary);
         let bins = if n > PARALLEL {
-            refs.par_chunks(CHUNK).map(|c| bin_refs(c, &binning)).reduce(|| [[EMPTY_BIN; BINS]; 3], merge_bins)
+            refs.par_chunks(CHUNK)
+                .fold(
+                    || EMPTY_BINS,
+                    |mut bins, c| {
+                        bin_refs(c, &binning, &mut bins);
+                        bins
+                    },
+                )
+                .reduce(|| EMPTY_BINS, merge_bins)
         } else {
-            bin_refs(refs, &binning)
+            let mut bins = EMPTY_BINS;
+            bin_refs(refs, &binning, &mut bins);
+            bins
         };
         best_split(&bins)
             .map(|(cost, axis, plane)| (options.traversal_cost * bounds.area() + cost, axis, plane, binning))
@@ -307,10 +378,10 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
     }
     let (mid, sides) = match split {
         // A leaf of mixed kinds must be split by kind first.
-        _ if mixed && n <= max_leaf => partition_node(refs, |r| !r.is_sphere),
+        _ if mixed && n <= max_leaf => partition_node(refs, |r| !r.is_sphere()),
         Some((_, axis, plane, binning)) => partition_node(refs, |r| binning.bin(r.centroid(), axis) < plane),
         // All centroids coincide, or the tree is deep: split by kind, else in the middle.
-        None if mixed => partition_node(refs, |r| !r.is_sphere),
+        None if mixed => partition_node(refs, |r| !r.is_sphere()),
         None => (n / 2, None),
     };
     let (ls, rs) = (sides.map(|s| s.0), sides.map(|s| s.1));
@@ -329,6 +400,7 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec3;
 
     fn point_refs(points: &[Vec3]) -> Vec<PrimRef> {
         points
@@ -362,7 +434,7 @@ mod tests {
         for (child, range) in children.iter().zip([0..4u32, 4..8]) {
             let Node2::Leaf { start, count, .. } = child else { panic!("cluster not a leaf") };
             assert_eq!((*start, *count), (range.start, 4));
-            let mut ids: Vec<u32> = refs[range.start as usize..range.end as usize].iter().map(|r| r.id).collect();
+            let mut ids: Vec<u32> = refs[range.start as usize..range.end as usize].iter().map(|r| r.id()).collect();
             ids.sort();
             assert_eq!(ids, range.collect::<Vec<_>>());
         }
@@ -388,7 +460,8 @@ mod tests {
         let (mut out, mut depth) = (Vec::new(), 0);
         leaves(&root, &mut out, 0, &mut depth);
         for (start, count) in out {
-            let kinds: Vec<bool> = refs[start as usize..(start + count) as usize].iter().map(|r| r.is_sphere).collect();
+            let kinds: Vec<bool> =
+                refs[start as usize..(start + count) as usize].iter().map(|r| r.is_sphere()).collect();
             assert!(kinds.iter().all(|&k| k == kinds[0]), "mixed leaf {kinds:?}");
         }
     }

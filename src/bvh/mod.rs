@@ -213,10 +213,10 @@ struct Leaves<'a> {
 impl LeafSink for Leaves<'_> {
     fn leaf(&mut self, start: usize, count: usize) -> ChildRef {
         let refs = &self.refs[start..start + count];
-        if refs[0].is_sphere {
+        if refs[0].is_sphere() {
             let first = self.spheres.len();
             for r in refs {
-                let i = r.id as usize - self.tri_ids.len();
+                let i = r.id() as usize - self.tri_ids.len();
                 self.spheres.push(self.scene.spheres[i]);
                 self.sphere_ids.push(i as u32);
             }
@@ -226,7 +226,7 @@ impl LeafSink for Leaves<'_> {
             for chunk in refs.chunks(triangle::LANES) {
                 let mut block = Block::EMPTY;
                 for (lane, r) in chunk.iter().enumerate() {
-                    let (mesh, tri) = self.tri_ids[r.id as usize];
+                    let (mesh, tri) = self.tri_ids[r.id() as usize];
                     block.triangles.set(lane, self.scene.meshes[mesh as usize].triangle(tri as usize));
                     (block.geom_ids[lane], block.prim_ids[lane]) = (mesh, tri);
                 }
