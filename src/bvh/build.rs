@@ -250,6 +250,28 @@ fn merge_bins(mut a: Bins, b: Bins) -> Bins {
     a
 }
 
+/// The cheapest split of `refs` (see [`best_split`]); nodes of more than [`PARALLEL`] refs bin
+/// them in parallel chunks.
+fn find_split(refs: &[PrimRef], binning: &Binning) -> Option<(f32, usize, usize)> {
+    if refs.len() > PARALLEL {
+        let bins = refs
+            .par_chunks(CHUNK)
+            .fold(
+                || EMPTY_BINS,
+                |mut bins, c| {
+                    bin_refs(c, binning, &mut bins);
+                    bins
+                },
+            )
+            .reduce(|| EMPTY_BINS, merge_bins);
+        best_split(&bins)
+    } else {
+        let mut bins = EMPTY_BINS;
+        bin_refs(refs, binning, &mut bins);
+        best_split(&bins)
+    }
+}
+
 /// Surface area of the box `min..max` held as `Vec3A`; 0 when empty (as [`Aabb::area`]).
 #[inline]
 fn area(min: Vec3A, max: Vec3A) -> f32 {
@@ -299,6 +321,7 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
 /// Moves the refs for which `left` holds to the front; returns how many there are and, when
 /// `SUMMARISE`, the summaries of both sides, made as it goes (one pass over the refs instead
 /// of two: the children need no [`Summary::of`] of their own). Without it both are empty.
+#[inline(always)]
 fn partition<const SUMMARISE: bool>(
     refs: &mut [PrimRef],
     left: impl Fn(&PrimRef) -> bool,
@@ -325,6 +348,7 @@ fn partition<const SUMMARISE: bool>(
 
 /// A node's partition: nodes of more than [`PARALLEL`] refs partition alone and let each child
 /// summarise itself in parallel; smaller ones summarise the children while partitioning.
+#[inline(always)]
 fn partition_node(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Option<(Summary, Summary)>) {
     if refs.len() > PARALLEL {
         (partition::<false>(refs, left).0, None)
@@ -350,24 +374,14 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
     if n == 1 {
         return leaf();
     }
+    // A split costs at least `traversal_cost` times the node's area, a leaf of that many
+    // blocks at most that: no need to look for a split.
+    if !mixed && n <= max_leaf && blocks(n) <= options.traversal_cost {
+        return leaf();
+    }
     let split = if depth < MAX_SAH_DEPTH {
         let binning = Binning::new(&summary);
-        let bins = if n > PARALLEL {
-            refs.par_chunks(CHUNK)
-                .fold(
-                    || EMPTY_BINS,
-                    |mut bins, c| {
-                        bin_refs(c, &binning, &mut bins);
-                        bins
-                    },
-                )
-                .reduce(|| EMPTY_BINS, merge_bins)
-        } else {
-            let mut bins = EMPTY_BINS;
-            bin_refs(refs, &binning, &mut bins);
-            bins
-        };
-        best_split(&bins)
+        find_split(refs, &binning)
             .map(|(cost, axis, plane)| (options.traversal_cost * bounds.area() + cost, axis, plane, binning))
     } else {
         None
