@@ -198,16 +198,66 @@ pub struct Stats {
     pub sah_leaves: f64,
 }
 
-/// The leaf sink of the collapse: copies each leaf's primitives into blocks or the sphere
-/// array, in tree order.
+/// Global triangle indices, which number the scene's triangles mesh after mesh.
+struct TriangleIds {
+    /// The global index of each mesh's first triangle.
+    starts: Vec<usize>,
+    /// The number of triangles.
+    count: usize,
+}
+
+impl TriangleIds {
+    fn new(scene: &Scene) -> Self {
+        let mut count = 0;
+        let starts = scene
+            .meshes
+            .iter()
+            .map(|m| {
+                count += m.indices.len();
+                count - m.indices.len()
+            })
+            .collect();
+        TriangleIds { starts, count }
+    }
+
+    /// `(mesh, triangle)` of global triangle index `i`: the last mesh starting at or before
+    /// `i` (empty meshes start where the next one does).
+    #[inline]
+    fn locate(&self, i: usize) -> (u32, u32) {
+        let m = self.starts.partition_point(|&s| s <= i) - 1;
+        (m as u32, (i - self.starts[m]) as u32)
+    }
+}
+
+/// The leaf sink of the collapse: copies each leaf's spheres into the sphere array and notes
+/// the ranges of refs its triangle blocks take, in tree order; [`Leaves::blocks`] then fills
+/// the blocks in parallel (gathering the triangles' corners is most of the collapse's time).
 struct Leaves<'a> {
     refs: &'a [PrimRef],
     scene: &'a Scene,
-    /// `(mesh, triangle)` of each global triangle index.
-    tri_ids: &'a [(u32, u32)],
-    blocks: Vec<Block>,
+    tri_ids: &'a TriangleIds,
+    /// Each block's first ref and number of refs (1 to 4).
+    block_refs: Vec<(u32, u32)>,
     spheres: Vec<Sphere>,
     sphere_ids: Vec<u32>,
+}
+
+impl Leaves<'_> {
+    /// The triangle blocks, in the order the collapse emitted them.
+    fn blocks(&self) -> Vec<Block> {
+        self.block_refs
+            .par_iter()
+            .map(|&(start, count)| {
+                let mut block = Block::EMPTY;
+                for (lane, r) in self.refs[start as usize..(start + count) as usize].iter().enumerate() {
+                    let (mesh, tri) = self.tri_ids.locate(r.id() as usize);
+                    block.triangles.set(lane, self.scene.meshes[mesh as usize].triangle(tri as usize));
+                    (block.geom_ids[lane], block.prim_ids[lane]) = (mesh, tri);
+                }
+                block
+            })
+            .collect()
+    }
 }
 
 impl LeafSink for Leaves<'_> {
@@ -216,22 +266,17 @@ impl LeafSink for Leaves<'_> {
         if refs[0].is_sphere() {
             let first = self.spheres.len();
             for r in refs {
-                let i = r.id() as usize - self.tri_ids.len();
+                let i = r.id() as usize - self.tri_ids.count;
                 self.spheres.push(self.scene.spheres[i]);
                 self.sphere_ids.push(i as u32);
             }
             ChildRef::leaf(first, count, true)
         } else {
-            let first = self.blocks.len();
-            for chunk in refs.chunks(triangle::LANES) {
-                let mut block = Block::EMPTY;
-                for (lane, r) in chunk.iter().enumerate() {
-                    let (mesh, tri) = self.tri_ids[r.id() as usize];
-                    block.triangles.set(lane, self.scene.meshes[mesh as usize].triangle(tri as usize));
-                    (block.geom_ids[lane], block.prim_ids[lane]) = (mesh, tri);
-                }
-                self.blocks.push(block);
-            }
+            let first = self.block_refs.len();
+            let end = start + count;
+            self.block_refs.extend(
+                (start..end).step_by(triangle::LANES).map(|b| (b as u32, (end - b).min(triangle::LANES) as u32)),
+            );
             ChildRef::leaf(first, count.div_ceil(triangle::LANES), false)
         }
     }
@@ -270,19 +315,17 @@ impl Bvh {
         if n > u32::MAX as usize / 2 || n > node::MAX_LEAF_INDEX {
             return Err(invalid("scene".into(), format!("{n} primitives are more than the native BVH can index")));
         }
-        let tri_ids: Vec<(u32, u32)> = scene
-            .meshes
-            .iter()
-            .enumerate()
-            .flat_map(|(m, mesh)| (0..mesh.indices.len() as u32).map(move |t| (m as u32, t)))
-            .collect();
-        let mut refs: Vec<PrimRef> = tri_ids
-            .par_iter()
-            .enumerate()
-            .map(|(i, &(m, t))| {
-                PrimRef::new(triangle::bounds(scene.meshes[m as usize].triangle(t as usize)), i as u32, false)
-            })
-            .collect();
+        let tri_ids = TriangleIds::new(scene);
+        let mut refs: Vec<PrimRef> = Vec::with_capacity(n);
+        for (m, mesh) in scene.meshes.iter().enumerate() {
+            let start = tri_ids.starts[m];
+            refs.par_extend(
+                mesh.indices
+                    .par_iter()
+                    .enumerate()
+                    .map(|(t, _)| PrimRef::new(triangle::bounds(mesh.triangle(t)), (start + t) as u32, false)),
+            );
+        }
         refs.extend(
             scene.spheres.iter().enumerate().map(|(i, s)| PrimRef::new(sphere_bounds(s), (n_tris + i) as u32, true)),
         );
@@ -291,7 +334,7 @@ impl Bvh {
             refs: &refs,
             scene,
             tri_ids: &tri_ids,
-            blocks: Vec::with_capacity(n_tris / 2),
+            block_refs: Vec::with_capacity(n_tris / 2),
             spheres: Vec::with_capacity(scene.spheres.len()),
             sphere_ids: Vec::with_capacity(scene.spheres.len()),
         };
@@ -302,6 +345,7 @@ impl Bvh {
             }
             None => (Vec::new(), ChildRef::EMPTY, Aabb::EMPTY),
         };
+        let blocks = leaves.blocks();
         if nodes.len() > node::MAX_NODE_INDEX {
             return Err(invalid(
                 "scene".into(),
@@ -312,7 +356,7 @@ impl Bvh {
             nodes,
             root,
             bounds,
-            blocks: leaves.blocks,
+            blocks,
             spheres: leaves.spheres,
             sphere_ids: leaves.sphere_ids,
             planes: scene.planes.clone(),
