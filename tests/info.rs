@@ -94,7 +94,10 @@ fn the_cornell_box_obj_and_a_mesh_with_degenerate_triangles() {
         .map(|m| format!("CornellBox-Original.obj/{m}"))
         .join(", ");
     assert_eq!(lines[1], format!("object 0: mesh {}, 36 triangles, materials {materials}", cornell.display()));
-    assert!(lines.contains(&"materials: 8".into()) && lines.contains(&"lights: 0".into()), "{lines:?}");
+    assert!(
+        lines.contains(&"materials: 8".into()) && lines.contains(&"lights: 1 (1 emitting mesh)".into()),
+        "{lines:?}"
+    );
     // The corners of the box in the OBJ: x from −1.02 to 1, y from 0 to 1.99, z from −1.04 to 0.99.
     assert!(lines.contains(&"bounds: min [-1.0200, 0.0000, -1.0400] max [1.0000, 1.9900, 0.9900] (meshes and spheres; planes are unbounded)".into()), "{lines:?}");
     assert_eq!(stderr, "");

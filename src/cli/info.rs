@@ -9,7 +9,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use strahl::scene::{Loaded, ObjectSummary};
+use strahl::light::mesh::MeshEmitter;
+use strahl::scene::{Loaded, ObjectSummary, Scene};
 
 /// Arguments of `strahl info`.
 #[derive(Args, Debug)]
@@ -71,10 +72,7 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
     lines.extend([
         format!("spheres: {}", scene.spheres.len()),
         format!("planes: {}", scene.planes.len()),
-        match scene.area_lights.len() {
-            0 => format!("lights: {}", scene.lights.len()),
-            n => format!("lights: {} ({n} with an area)", scene.lights.len() + n),
-        },
+        lights_line(scene),
         format!("materials: {}", scene.materials.len()),
         format!("bounds: {bounds}"),
         format!("degenerate triangles dropped: {dropped}"),
@@ -87,6 +85,21 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
         format!("load time: {:.1} ms", load_seconds * 1e3),
     ]);
     lines.iter().map(|l| format!("{l}\n")).collect()
+}
+
+/// `lights: 3 (1 with an area, 1 emitting mesh)`: point and directional lights, area lights,
+/// and the meshes whose emission lights the scene ([`MeshEmitter`]).
+fn lights_line(scene: &Scene) -> String {
+    let (area, meshes) = (scene.area_lights.len(), MeshEmitter::of_scene(scene).len());
+    let total = scene.lights.len() + area + meshes;
+    let mut parts = Vec::new();
+    if area > 0 {
+        parts.push(format!("{area} with an area"));
+    }
+    if meshes > 0 {
+        parts.push(format!("{meshes} emitting mesh{}", if meshes == 1 { "" } else { "es" }));
+    }
+    if parts.is_empty() { format!("lights: {total}") } else { format!("lights: {total} ({})", parts.join(", ")) }
 }
 
 /// Most material names listed for one object.
