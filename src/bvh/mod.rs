@@ -23,7 +23,6 @@
 pub mod build;
 pub mod instance;
 pub mod node;
-#[cfg(target_arch = "x86_64")]
 mod simd;
 
 use glam::Vec4;
@@ -45,34 +44,13 @@ pub enum Error {
     InvalidInput { object: String, problem: String },
 }
 
-/// Entries of the fixed traversal stack, enough for trees up to 9 levels deep (each level
-/// leaves at most seven children on the stack; the dragon's tree has 8). Deeper trees
-/// traverse with a growable stack instead.
-const STACK: usize = 64;
+use simd::{ArrayStack, STACK};
 
-/// The traversal stack: a fixed array for the usual trees (cheap to set up per ray), a vector
-/// for deeper ones.
+/// The traversal stack: a fixed array for the usual trees ([`ArrayStack`], nothing to set up
+/// per ray), a vector for deeper ones.
 trait Stack<T: Copy> {
     fn push(&mut self, x: T);
     fn pop(&mut self) -> Option<T>;
-}
-
-struct ArrayStack<T, const N: usize> {
-    items: [T; N],
-    len: usize,
-}
-
-impl<T: Copy, const N: usize> Stack<T> for ArrayStack<T, N> {
-    #[inline(always)]
-    fn push(&mut self, x: T) {
-        self.items[self.len] = x;
-        self.len += 1;
-    }
-    #[inline(always)]
-    fn pop(&mut self) -> Option<T> {
-        self.len = self.len.checked_sub(1)?;
-        Some(self.items[self.len])
-    }
 }
 
 impl<T: Copy> Stack<T> for Vec<T> {
@@ -493,18 +471,8 @@ impl Bvh {
     #[inline(always)]
     fn intersect_by(&self, ray: &Ray, tfar: f32, r: &TraversalRay, boxes: &impl BoxTest) -> Option<Found> {
         match (self.shallow, r.axial) {
-            (true, false) => self.intersect_with::<false>(
-                ray,
-                tfar,
-                boxes,
-                ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 },
-            ),
-            (true, true) => self.intersect_with::<true>(
-                ray,
-                tfar,
-                boxes,
-                ArrayStack { items: [(ChildRef::EMPTY, 0.0f32); STACK], len: 0 },
-            ),
+            (true, false) => self.intersect_with::<false>(ray, tfar, boxes, ArrayStack::<_, STACK>::new()),
+            (true, true) => self.intersect_with::<true>(ray, tfar, boxes, ArrayStack::<_, STACK>::new()),
             (false, false) => self.intersect_with::<false>(ray, tfar, boxes, Vec::new()),
             (false, true) => self.intersect_with::<true>(ray, tfar, boxes, Vec::new()),
         }
@@ -514,12 +482,8 @@ impl Bvh {
     #[inline(always)]
     fn occluded_by(&self, ray: &Ray, r: &TraversalRay, boxes: &impl BoxTest) -> bool {
         match (self.shallow, r.axial) {
-            (true, false) => {
-                self.occluded_with::<false>(ray, boxes, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
-            }
-            (true, true) => {
-                self.occluded_with::<true>(ray, boxes, ArrayStack { items: [ChildRef::EMPTY; STACK], len: 0 })
-            }
+            (true, false) => self.occluded_with::<false>(ray, boxes, ArrayStack::<_, STACK>::new()),
+            (true, true) => self.occluded_with::<true>(ray, boxes, ArrayStack::<_, STACK>::new()),
             (false, false) => self.occluded_with::<false>(ray, boxes, Vec::new()),
             (false, true) => self.occluded_with::<true>(ray, boxes, Vec::new()),
         }

@@ -14,17 +14,30 @@
 //! sound only on a CPU with AVX2, which an [`Avx2`] value proves: its only constructor
 //! checks. Measured on the full dragon, 1 thread, against the portable kernel: see the commit
 //! message and docs/performance.md.
+//!
+//! The traversal stack of both kernels lives here too ([`ArrayStack`]): an array left
+//! uninitialised, read only below the entries pushed (one `unsafe` read, measured: filling
+//! it per ray cost a tenth of a primary ray).
 
+#[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+use std::mem::MaybeUninit;
+
+use super::Stack;
+#[cfg(target_arch = "x86_64")]
 use super::node::{ChildRef, Node, WIDTH};
+#[cfg(target_arch = "x86_64")]
 use super::{BoxTest, Bvh, Found, TraversalRay};
+#[cfg(target_arch = "x86_64")]
 use crate::math::Ray;
 
 /// Proof that the CPU runs AVX2: made only by [`Avx2::detect`].
+#[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy, Debug)]
 pub struct Avx2(());
 
+#[cfg(target_arch = "x86_64")]
 impl Avx2 {
     /// `Some` on a CPU with AVX2.
     pub fn detect() -> Option<Avx2> {
@@ -46,12 +59,14 @@ impl Avx2 {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn intersect(bvh: &Bvh, ray: &Ray, tfar: f32) -> Option<Found> {
     let r = TraversalRay::new(ray);
     bvh.intersect_by(ray, tfar, &r, &Boxes8::new(&r))
 }
 
+#[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn occluded(bvh: &Bvh, ray: &Ray) -> bool {
     let r = TraversalRay::new(ray);
@@ -60,6 +75,7 @@ fn occluded(bvh: &Bvh, ray: &Ray) -> bool {
 
 /// A [`TraversalRay`] broadcast to eight lanes. Made and used only inside the
 /// `#[target_feature(enable = "avx2")]` functions above.
+#[cfg(target_arch = "x86_64")]
 struct Boxes8 {
     org: [__m256; 3],
     inv: [__m256; 3],
@@ -69,6 +85,7 @@ struct Boxes8 {
     tnear: __m256,
 }
 
+#[cfg(target_arch = "x86_64")]
 impl Boxes8 {
     #[inline(always)]
     fn new(r: &TraversalRay) -> Self {
@@ -87,8 +104,10 @@ impl Boxes8 {
 }
 
 /// Cache lines of a leaf's first blocks that [`Boxes8::prefetch`] asks for.
+#[cfg(target_arch = "x86_64")]
 const LEAF_LINES: usize = 4;
 
+#[cfg(target_arch = "x86_64")]
 impl BoxTest for Boxes8 {
     #[inline(always)]
     fn prefetch(&self, bvh: &Bvh, child: ChildRef) {
@@ -149,5 +168,70 @@ impl BoxTest for Boxes8 {
             let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
             (entry, mask)
         }
+    }
+}
+
+/// Entries of the fixed traversal stack, enough for trees up to 9 levels deep (each level
+/// leaves at most seven children on the stack; the dragon's tree has 8). Deeper trees
+/// traverse with a growable stack instead.
+pub(super) const STACK: usize = 64;
+
+/// The fixed traversal stack, left uninitialised: filling its 64 entries for every ray (16
+/// 32-byte stores before the first node) cost about a tenth of a primary ray on the full
+/// dragon (native / raw Embree 1.30 -> 1.18, `strahl bench`, see docs/performance.md).
+pub(super) struct ArrayStack<T, const N: usize> {
+    items: [MaybeUninit<T>; N],
+    /// Entries `0..len` are initialised (written by `push`).
+    len: usize,
+}
+
+impl<T: Copy, const N: usize> ArrayStack<T, N> {
+    #[inline(always)]
+    pub(super) fn new() -> Self {
+        ArrayStack { items: [const { MaybeUninit::uninit() }; N], len: 0 }
+    }
+}
+
+impl<T: Copy, const N: usize> Stack<T> for ArrayStack<T, N> {
+    #[inline(always)]
+    fn push(&mut self, x: T) {
+        // Bounds-checked: a push beyond N panics (the tree's depth rules it out).
+        self.items[self.len] = MaybeUninit::new(x);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        self.len = self.len.checked_sub(1)?;
+        // SAFETY: `len` only grows by `push`, which writes entry `len` first, so every entry
+        // below `len`, this one included, is initialised.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
+
+#[cfg(test)]
+mod stack_tests {
+    use super::*;
+    use crate::bvh::node::ChildRef;
+
+    #[test]
+    fn pops_what_was_pushed_last_first() {
+        let mut s = ArrayStack::<(ChildRef, f32), 4>::new();
+        assert_eq!(s.pop().map(|(c, _)| c), None);
+        s.push((ChildRef(1), 0.5));
+        s.push((ChildRef(2), 0.25));
+        assert_eq!(s.pop(), Some((ChildRef(2), 0.25)));
+        s.push((ChildRef(3), 1.0));
+        assert_eq!(s.pop(), Some((ChildRef(3), 1.0)));
+        assert_eq!(s.pop(), Some((ChildRef(1), 0.5)));
+        assert_eq!(s.pop(), None);
+    }
+
+    #[test]
+    #[should_panic]
+    fn a_push_beyond_the_capacity_panics() {
+        let mut s = ArrayStack::<ChildRef, 1>::new();
+        s.push(ChildRef(1));
+        s.push(ChildRef(2));
     }
 }
