@@ -279,12 +279,11 @@ fn area(min: Vec3A, max: Vec3A) -> f32 {
     2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
 }
 
-/// The cheapest split: `(cost, axis, bins left of the plane)`, relative to the node's area.
-/// Only planes right of an occupied bin are evaluated: a plane right of an empty bin splits
-/// the refs as the plane before it does, at the same cost, and the first of equal costs wins
-/// (so the choice is the same as when every plane is evaluated).
+/// The cheapest split: `(cost, axis, bins left of the plane)`, relative to the node's area;
+/// the first of equal costs wins. Every plane is evaluated and the best one selected without
+/// branches (the bins' occupancy, and so which planes split anything, is unpredictable).
 fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
-    let mut best: Option<(f32, usize, usize)> = None;
+    let (mut found, mut best) = (false, (0.0, 0, 0));
     for (axis, bins) in bins.iter().enumerate() {
         // Right-to-left sweep: area and count of everything right of each plane.
         let mut right_area = [0.0f32; BINS];
@@ -293,29 +292,21 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize)> {
         for i in (1..BINS).rev() {
             (min, max) = (min.min(bins[i].min), max.max(bins[i].max));
             n += bins[i].count;
+            right_area[i] = area(min, max);
             right_count[i] = n;
-            if bins[i - 1].count != 0 {
-                right_area[i] = area(min, max);
-            }
         }
         let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
         for i in 1..BINS {
-            let b = &bins[i - 1];
-            if b.count == 0 {
-                continue;
-            }
-            if right_count[i] == 0 {
-                break;
-            }
-            (min, max) = (min.min(b.min), max.max(b.max));
-            n += b.count;
+            (min, max) = (min.min(bins[i - 1].min), max.max(bins[i - 1].max));
+            n += bins[i - 1].count;
             let cost = area(min, max) * blocks(n as usize) + right_area[i] * blocks(right_count[i] as usize);
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, i));
-            }
+            // A plane with nothing on one side is no split.
+            let better = (n != 0) & (right_count[i] != 0) & (!found | (cost < best.0));
+            found |= better;
+            best = if better { (cost, axis, i) } else { best };
         }
     }
-    best
+    found.then_some(best)
 }
 
 /// Moves the refs for which `left` holds to the front; returns how many there are and, when
