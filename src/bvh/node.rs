@@ -142,33 +142,41 @@ fn emit(node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node>) -> ChildR
     }
 }
 
-/// The (up to eight) children of a wide node: the binary node's two children, with the
-/// inner child of largest surface area opened while there is room.
-fn open_children(node: &Node2) -> Vec<&Node2> {
-    let Node2::Inner { children, .. } = node else { return vec![node] };
-    let mut open: Vec<&Node2> = children.iter().collect();
-    while open.len() < WIDTH {
-        let widest = open
-            .iter()
-            .enumerate()
-            .filter(|(_, n)| matches!(n, Node2::Inner { .. }))
-            .max_by(|(_, a), (_, b)| a.bounds().area().total_cmp(&b.bounds().area()))
-            .map(|(i, _)| i);
-        let Some(i) = widest else { break };
-        let Node2::Inner { children, .. } = open.remove(i) else { unreachable!() };
-        open.insert(i, &children[1]);
-        open.insert(i, &children[0]);
+/// The (up to eight) children of a wide node, and how many: the binary node's two children,
+/// with the inner child of largest surface area opened while there is room (the last of
+/// equal areas). A fixed array: no allocation per node.
+fn open_children(node: &Node2) -> ([&Node2; WIDTH], usize) {
+    let mut open = [node; WIDTH];
+    let Node2::Inner { children, .. } = node else { return (open, 1) };
+    (open[0], open[1]) = (&children[0], &children[1]);
+    let mut len = 2;
+    while len < WIDTH {
+        let mut widest: Option<(usize, f32)> = None;
+        for (i, n) in open[..len].iter().enumerate() {
+            if let Node2::Inner { bounds, .. } = n {
+                let a = bounds.area();
+                if widest.is_none_or(|(_, w)| a.total_cmp(&w).is_ge()) {
+                    widest = Some((i, a));
+                }
+            }
+        }
+        let Some((i, _)) = widest else { break };
+        let Node2::Inner { children, .. } = open[i] else { unreachable!() };
+        open.copy_within(i + 1..len, i + 2);
+        (open[i], open[i + 1]) = (&children[0], &children[1]);
+        len += 1;
     }
-    open
+    (open, len)
 }
 
 /// Fills `nodes[index]` from the binary node `node`. The node's inner children are allocated
 /// next to each other before any of their subtrees, so that siblings share pages and
 /// neighbouring cache lines.
 fn fill(index: usize, node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node>) {
-    let children = open_children(node);
-    let mut inner = Vec::new();
-    for (lane, child) in children.iter().enumerate() {
+    let (children, len) = open_children(node);
+    let mut inner = [(0, node); WIDTH];
+    let mut n_inner = 0;
+    for (lane, child) in children[..len].iter().enumerate() {
         let r = match child {
             Node2::Leaf { start, count, .. } => {
                 debug_assert!(*count as usize <= MAX_LEAF);
@@ -176,13 +184,14 @@ fn fill(index: usize, node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<No
             }
             Node2::Inner { .. } => {
                 nodes.push(Node::EMPTY);
-                inner.push((nodes.len() - 1, *child));
+                inner[n_inner] = (nodes.len() - 1, *child);
+                n_inner += 1;
                 ChildRef::node(nodes.len() - 1)
             }
         };
         nodes[index].set(lane, child.bounds(), r);
     }
-    for (i, child) in inner {
+    for &(i, child) in &inner[..n_inner] {
         fill(i, child, sink, nodes);
     }
 }
