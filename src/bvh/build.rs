@@ -217,8 +217,16 @@ impl Binning {
 
     #[inline]
     fn bin(&self, c: Vec3A, axis: usize) -> usize {
-        (self.position(c)[axis] as usize).min(BINS - 1)
+        bin_index(self.position(c)[axis])
     }
+}
+
+/// The bin of a position in bin units: `(p as usize).min(BINS - 1)` (NaN and negative
+/// positions in bin 0), through a 32-bit conversion, which takes fewer instructions than a
+/// saturating one to `usize`.
+#[inline(always)]
+fn bin_index(p: f32) -> usize {
+    (p as i32).clamp(0, BINS as i32 - 1) as usize
 }
 
 type Bins = [[Bin; BINS]; 3];
@@ -231,7 +239,7 @@ fn bin_refs(refs: &[PrimRef], binning: &Binning, bins: &mut Bins) {
         let p = binning.position(r.centroid());
         let (min, max) = (r.min(), r.max());
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[(p[axis] as usize).min(BINS - 1)];
+            let b = &mut axis_bins[bin_index(p[axis])];
             b.min = b.min.min(min);
             b.max = b.max.max(max);
             b.count += 1;
