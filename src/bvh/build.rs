@@ -214,11 +214,6 @@ impl Binning {
     fn position(&self, c: Vec3A) -> Vec3A {
         (c - self.origin) * self.scale
     }
-
-    #[inline]
-    fn bin(&self, c: Vec3A, axis: usize) -> usize {
-        bin_index(self.position(c)[axis])
-    }
 }
 
 /// The bin of a position in bin units: `(p as usize).min(BINS - 1)` (NaN and negative
@@ -392,7 +387,15 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: usize, options: &Optio
     let (mid, sides) = match split {
         // A leaf of mixed kinds must be split by kind first.
         _ if mixed && n <= max_leaf => partition_node(refs, |r| !r.is_sphere()),
-        Some((_, axis, plane, binning)) => partition_node(refs, |r| binning.bin(r.centroid(), axis) < plane),
+        // One loop per axis, each reading its one lane.
+        Some((_, axis, plane, binning)) => {
+            let (o, s) = (binning.origin[axis], binning.scale[axis]);
+            match axis {
+                0 => partition_node(refs, |r| bin_index((r.centroid().x - o) * s) < plane),
+                1 => partition_node(refs, |r| bin_index((r.centroid().y - o) * s) < plane),
+                _ => partition_node(refs, |r| bin_index((r.centroid().z - o) * s) < plane),
+            }
+        }
         // All centroids coincide, or the tree is deep: split by kind, else in the middle.
         None if mixed => partition_node(refs, |r| !r.is_sphere()),
         None => (n / 2, None),
