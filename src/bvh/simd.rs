@@ -179,6 +179,13 @@ pub(super) const STACK: usize = 64;
 /// The fixed traversal stack, left uninitialised: filling its 64 entries for every ray (16
 /// 32-byte stores before the first node) cost about a tenth of a primary ray on the full
 /// dragon (native / raw Embree 1.30 -> 1.18, `strahl bench`, see docs/performance.md).
+///
+/// Aligned to 64 bytes, which makes the kernels realign their stack frame: their 32-byte
+/// spills (the ray broadcast to eight lanes, ten vectors) then never straddle a cache line,
+/// whatever the callers' frames. Without it the traversal's speed depended on the stack depth
+/// it was called at: the same kernel code measured 13.9 or 12.8 Mrays/CPU-s on primary rays
+/// depending on an unrelated change elsewhere in the binary.
+#[repr(align(64))]
 pub(super) struct ArrayStack<T, const N: usize> {
     items: [MaybeUninit<T>; N],
     /// Entries `0..len` are initialised (written by `push`).
