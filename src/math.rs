@@ -65,7 +65,7 @@ impl Aabb {
     }
 
     /// The box's size per axis; 0 for an empty box (`min > max`, as [`Aabb::EMPTY`] is: its
-    /// `max − min` is −∞). Branch-free: the BVH build's split search calls it for every bin.
+    /// `max − min` is −∞). Branch-free.
     pub fn extent(&self) -> Vec3 {
         (self.max - self.min).max(Vec3::ZERO)
     }

@@ -648,9 +648,10 @@ impl Bvh {
 
 /// What the closest-hit traversal found. The traversal returns this, not the [`Hit`]: the
 /// kernel is a call (the AVX2 one cannot be inlined into its caller), and a [`Hit`] returned
-/// through memory is stored field by field and reloaded whole, which stalls store forwarding
-/// (measured: see `Bvh::intersect`).
-pub(crate) enum Found {
+/// through memory is stored field by field and reloaded whole, which can stall store
+/// forwarding; [`Bvh::hit_of`] builds the hit in the inlined caller instead. (Measured in
+/// docs/performance.md: a gain only while another process loads the second core.)
+enum Found {
     Triangle { block: usize, lane: usize, hit: triangle::TriangleHit },
     Sphere { index: usize, t: f32 },
 }

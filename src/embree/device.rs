@@ -35,8 +35,8 @@ unsafe extern "C" fn error_function(_user: *mut c_void, code: sys::RTCError, mes
 }
 
 /// The error Embree reported on this thread since the last call, if any, as an `Err` naming
-/// the API function that failed.
-/// Inlined down to one thread-local load and a compare: it runs after every query.
+/// the API function that failed. Inlined down to one thread-local load and a compare: it
+/// runs after every query; the error path is [`reported_error`], out of line.
 #[inline]
 pub(crate) fn take_error(call: &'static str) -> Result<(), Error> {
     if ERROR_CODE.with(|c| c.get()) == sys::RTC_ERROR_NONE {
