@@ -150,6 +150,33 @@ fn every_kernel_gives_the_portable_kernels_hits() {
             }
         }
     }
+    // Ties: 300 copies of one triangle, every hit at the same t in every block of a leaf. The
+    // kernels must pick the same copy (the first block, then the lowest lane), whether they
+    // test a leaf's blocks one by one or several at once.
+    let tri = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+    let stack = Scene {
+        meshes: vec![Mesh {
+            name: "stack".into(),
+            positions: tri.to_vec(),
+            indices: vec![[0, 1, 2]; 300],
+            ..Default::default()
+        }],
+        ..Default::default()
+    };
+    for max_leaf in [4, 8, 12, 16, 32] {
+        let options = BuildOptions { max_leaf, traversal_cost: 2.0 };
+        let portable = Bvh::build_with(&stack, &options).unwrap().with_kernel(Kernel::Portable).unwrap();
+        for kernel in kernels {
+            let Some(bvh) = Bvh::build_with(&stack, &options).unwrap().with_kernel(kernel) else { continue };
+            for (x, y) in [(0.2, 0.2), (0.5, 0.25), (0.0, 0.5), (0.5, 0.5), (0.1, 0.7)] {
+                let down = Ray::new(Vec3::new(x, y, 1.0), Vec3::new(0.01, -0.02, -1.0));
+                let hit = bvh.intersect(&down).unwrap();
+                assert!(hit.is_some(), "({x}, {y})");
+                assert_eq!(hit, portable.intersect(&down).unwrap(), "{kernel:?}, max_leaf {max_leaf} ({x}, {y})");
+                assert!(bvh.occluded(&down).unwrap());
+            }
+        }
+    }
     for k in 0..3 {
         let scene = quad_scene(k);
         let portable = Bvh::build(&scene).unwrap().with_kernel(Kernel::Portable).unwrap();

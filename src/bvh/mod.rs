@@ -515,13 +515,11 @@ impl Bvh {
                 } else {
                     // The triangle test's frame, made when the ray first reaches a leaf.
                     let frame = frame.get_or_insert_with(|| RayFrame4::new(&RayFrame::new(ray.org, ray.dir)));
-                    for b in first..first + count {
-                        if let Some((lane, hit)) =
-                            triangle::intersect4(frame, &self.blocks[b].triangles, ray.tnear, best_t)
-                        {
-                            best_t = hit.t;
-                            found = Some(Found::Triangle { block: b, lane, hit });
-                        }
+                    if let Some((b, lane, hit)) =
+                        r.intersect_blocks(&self.blocks[first..first + count], frame, ray.tnear, best_t)
+                    {
+                        best_t = hit.t;
+                        found = Some(Found::Triangle { block: first + b, lane, hit });
                     }
                 }
             } else if cur != ChildRef::EMPTY {
@@ -603,10 +601,8 @@ impl Bvh {
                     }
                 } else {
                     let frame = frame.get_or_insert_with(|| RayFrame4::new(&RayFrame::new(ray.org, ray.dir)));
-                    for block in &self.blocks[first..first + count] {
-                        if triangle::occluded4(frame, &block.triangles, ray.tnear, ray.tfar) {
-                            return true;
-                        }
+                    if r.occluded_blocks(&self.blocks[first..first + count], frame, ray.tnear, ray.tfar) {
+                        return true;
                     }
                 }
             } else if cur != ChildRef::EMPTY {
@@ -694,7 +690,8 @@ impl TraversalRay {
     }
 }
 
-/// The slab test of a node's eight children, as the traversal calls it.
+/// What a traversal kernel computes with SIMD: the slab test of a node's eight children and
+/// the triangle test of a leaf's blocks, as the traversal calls them.
 trait BoxTest {
     /// Slab tests of the node's boxes against `(tnear, tfar)`: entry distances, and a bit
     /// mask of the boxes the ray enters. `AXIAL` must be the ray's [`TraversalRay::axial`]:
@@ -706,6 +703,35 @@ trait BoxTest {
     /// without a prefetch instruction do nothing).
     #[inline(always)]
     fn prefetch(&self, _bvh: &Bvh, _child: ChildRef) {}
+
+    /// The nearest triangle hit in a leaf's `blocks` within `(tnear, tfar)`: the block's index
+    /// in `blocks`, the lane, the hit. Exactly what [`triangle::intersect4`] finds block after
+    /// block, each block's hit shortening the ray (so ties go to the first block, then the
+    /// lowest lane); kernels may test several blocks at once if they keep that rule.
+    #[inline(always)]
+    fn intersect_blocks(
+        &self,
+        blocks: &[Block],
+        frame: &RayFrame4,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<(usize, usize, triangle::TriangleHit)> {
+        let mut best = None;
+        let mut tfar = tfar;
+        for (i, block) in blocks.iter().enumerate() {
+            if let Some((lane, hit)) = triangle::intersect4(frame, &block.triangles, tnear, tfar) {
+                tfar = hit.t;
+                best = Some((i, lane, hit));
+            }
+        }
+        best
+    }
+
+    /// Whether some triangle of a leaf's `blocks` lies on the ray within `(tnear, tfar)`.
+    #[inline(always)]
+    fn occluded_blocks(&self, blocks: &[Block], frame: &RayFrame4, tnear: f32, tfar: f32) -> bool {
+        blocks.iter().any(|block| triangle::occluded4(frame, &block.triangles, tnear, tfar))
+    }
 }
 
 impl BoxTest for TraversalRay {

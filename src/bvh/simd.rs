@@ -28,9 +28,13 @@ use super::Stack;
 #[cfg(target_arch = "x86_64")]
 use super::node::{ChildRef, Node, WIDTH};
 #[cfg(target_arch = "x86_64")]
-use super::{BoxTest, Bvh, Found, TraversalRay};
+use super::{Block, BoxTest, Bvh, Found, TraversalRay};
+#[cfg(target_arch = "x86_64")]
+use crate::geometry::triangle::{self, RayFrame4, Triangle4, TriangleHit};
 #[cfg(target_arch = "x86_64")]
 use crate::math::Ray;
+#[cfg(target_arch = "x86_64")]
+use glam::Vec4;
 
 /// Proof that the CPU runs AVX2: made only by [`Avx2::detect`].
 #[cfg(target_arch = "x86_64")]
@@ -168,6 +172,144 @@ impl BoxTest for Boxes8 {
             let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
             (entry, mask)
         }
+    }
+
+    #[inline(always)]
+    fn intersect_blocks(
+        &self,
+        blocks: &[Block],
+        frame: &RayFrame4,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<(usize, usize, TriangleHit)> {
+        let mut best = None;
+        let mut tfar = tfar;
+        let mut pairs = blocks.chunks_exact(2);
+        for (i, pair) in pairs.by_ref().enumerate() {
+            let (t, ok, w1, w2, det) = triangles8(frame, &pair[0].triangles, &pair[1].triangles, tnear, tfar);
+            let mut mask = ok;
+            if mask == 0 {
+                continue;
+            }
+            // The nearest of the lanes that hit, ties to the lowest (block `2i` first): what
+            // `intersect4` on the two blocks in turn finds.
+            let mut lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            while mask != 0 {
+                let l = mask.trailing_zeros() as usize;
+                if t[l] < t[lane] {
+                    lane = l;
+                }
+                mask &= mask - 1;
+            }
+            let hit = TriangleHit { t: t[lane], u: w1[lane] / det[lane], v: w2[lane] / det[lane] };
+            tfar = hit.t;
+            best = Some((2 * i + lane / 4, lane % 4, hit));
+        }
+        if let [last] = pairs.remainder() {
+            if let Some((lane, hit)) = triangle::intersect4(frame, &last.triangles, tnear, tfar) {
+                best = Some((blocks.len() - 1, lane, hit));
+            }
+        }
+        best
+    }
+
+    #[inline(always)]
+    fn occluded_blocks(&self, blocks: &[Block], frame: &RayFrame4, tnear: f32, tfar: f32) -> bool {
+        let mut pairs = blocks.chunks_exact(2);
+        for pair in pairs.by_ref() {
+            if triangles8(frame, &pair[0].triangles, &pair[1].triangles, tnear, tfar).1 != 0 {
+                return true;
+            }
+        }
+        pairs.remainder().iter().any(|b| triangle::occluded4(frame, &b.triangles, tnear, tfar))
+    }
+}
+
+/// Two `Vec4`s as one 8-lane vector, `lo` in lanes 0–3.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn pair(lo: Vec4, hi: Vec4) -> __m256 {
+    // SAFETY: called only inside the AVX2 functions above, on a CPU with AVX2.
+    unsafe { _mm256_set_m128(hi.into(), lo.into()) }
+}
+
+/// One corner of eight triangles (`p` in lanes 0–3, `q` in 4–7) in the ray's sheared frame:
+/// `(x', y', depth)` per lane, as `triangle::shear4` computes them.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn shear8(
+    [kx, ky, kz]: [usize; 3],
+    [ox, oy, oz]: [__m256; 3],
+    [sx, sy, sz]: [__m256; 3],
+    p: &[Vec4; 3],
+    q: &[Vec4; 3],
+) -> (__m256, __m256, __m256) {
+    // SAFETY: called only inside the AVX2 functions above, on a CPU with AVX2.
+    unsafe {
+        let dx = _mm256_sub_ps(pair(p[kx], q[kx]), ox);
+        let dy = _mm256_sub_ps(pair(p[ky], q[ky]), oy);
+        let dz = _mm256_sub_ps(pair(p[kz], q[kz]), oz);
+        (_mm256_sub_ps(dx, _mm256_mul_ps(sx, dz)), _mm256_sub_ps(dy, _mm256_mul_ps(sy, dz)), _mm256_mul_ps(sz, dz))
+    }
+}
+
+/// [`triangle::intersect4`]'s test on two blocks at once, `a` in lanes 0–3 and `b` in lanes
+/// 4–7: the same operations in the same order, lane by lane (no fused multiply-add), so the
+/// same bits. Returns `t`, the mask of lanes hit inside `(tnear, tfar)`, and the edge
+/// functions `w1`, `w2` and `det` that give `u` and `v`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn triangles8(
+    frame: &RayFrame4,
+    a: &Triangle4,
+    b: &Triangle4,
+    tnear: f32,
+    tfar: f32,
+) -> ([f32; 8], u32, [f32; 8], [f32; 8], [f32; 8]) {
+    // SAFETY: called only from `Boxes8`'s methods, which run inside the AVX2 functions above
+    // on a CPU with AVX2; the stores write eight f32 into arrays of eight.
+    unsafe {
+        let org = frame.org.map(|v| pair(v, v));
+        let shear = frame.shear.map(|v| pair(v, v));
+        let (ax, ay, az) = shear8(frame.axes, org, shear, &a.p[0], &b.p[0]);
+        let (bx, by, bz) = shear8(frame.axes, org, shear, &a.p[1], &b.p[1]);
+        let (cx, cy, cz) = shear8(frame.axes, org, shear, &a.p[2], &b.p[2]);
+        let w0 = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+        let w1 = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+        let w2 = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+        let zero = _mm256_setzero_ps();
+        // glam's cmpge/cmple/cmpgt/cmplt are ordered (false on NaN), its cmpne unordered.
+        let ge = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(w0, zero), _mm256_cmp_ps::<_CMP_GE_OQ>(w1, zero)),
+            _mm256_cmp_ps::<_CMP_GE_OQ>(w2, zero),
+        );
+        let le = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(w0, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(w1, zero)),
+            _mm256_cmp_ps::<_CMP_LE_OQ>(w2, zero),
+        );
+        let det = _mm256_add_ps(_mm256_add_ps(w0, w1), w2);
+        let t = _mm256_div_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, az), _mm256_mul_ps(w1, bz)), _mm256_mul_ps(w2, cz)),
+            det,
+        );
+        let ok = _mm256_and_ps(
+            _mm256_and_ps(_mm256_or_ps(ge, le), _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero)),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_set1_ps(tnear)),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(tfar)),
+            ),
+        );
+        let mask = _mm256_movemask_ps(ok) as u32;
+        let mut out = [[0.0f32; 8]; 4];
+        if mask != 0 {
+            _mm256_storeu_ps(out[0].as_mut_ptr(), t);
+            _mm256_storeu_ps(out[1].as_mut_ptr(), w1);
+            _mm256_storeu_ps(out[2].as_mut_ptr(), w2);
+            _mm256_storeu_ps(out[3].as_mut_ptr(), det);
+        }
+        let [t, w1, w2, det] = out;
+        (t, mask, w1, w2, det)
     }
 }
 
