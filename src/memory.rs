@@ -15,7 +15,9 @@
 //!   triangles): Embree's BVH 48 MB, the native one 43 MB, i.e. 55 and 49 bytes per triangle.
 //! - **film**: 4 bytes per float per pixel of the region, over every pass (RGBA, Z, N, albedo,
 //!   and the AOVs with their floats per pixel, Cryptomatte included).
-//! - **output**: a quarter of the film (the EXR encoder's per-block buffers and the PNG) plus
+//! - **output**: a quarter of the film (the compressed EXR blocks kept while rendering, at most
+//!   a sixteenth of the film or 32 MB, [`crate::io::exr_stream`]; the encoder's per-block
+//!   buffers and the PNG) plus
 //!   [`OUTPUT_BASE_BYTES`]. Measured: 3840 × 2160, default passes (44 bytes of film per pixel):
 //!   420 MB peak against 130 MB at 1920 × 1080, 49 bytes per pixel in all.
 //!

@@ -30,6 +30,7 @@ use strahl::integrator::{self, RayCounts, TileJob};
 use strahl::io::MeshFormat;
 use strahl::io::atomic::{directory_of, write_atomically_with};
 use strahl::io::exr::{Compression, ExrOptions, Layout};
+use strahl::io::exr_stream::BlockStream;
 use strahl::io::metadata::RenderInfo;
 use strahl::io::same_file::same_file;
 use strahl::passes::MAX_CRYPTO_LEVELS;
@@ -245,49 +246,56 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         resume: args.resume,
         key: checkpoint::key(&scene, region, args.backend.name()),
     };
-    let threads = super::thread_count(args.threads.map(|t| t as usize));
-    let pool = super::thread_pool(threads)?;
-    let Rendered { film, rays, build_seconds, render_seconds } = match args.backend {
-        Backend::Embree => {
-            let device = super::embree_device(threads)?;
-            let build_start = Instant::now();
-            let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
-                .with_context(|| format!("{}: cannot build Embree's BVH", args.scene.display()))?;
-            render(&pool, &scene, &accel, region, build_start, &args.scene, &checkpointing)?
-        }
-        Backend::Native => {
-            let build_start = Instant::now();
-            let accel = pool
-                .install(|| Bvh::build(&scene))
-                .with_context(|| format!("{}: cannot build the native BVH", args.scene.display()))?;
-            render(&pool, &scene, &accel, region, build_start, &args.scene, &checkpointing)?
-        }
-    };
-
+    // The file's layout, known before rendering so that its blocks can be compressed as the
+    // tiles finish (strahl::io::exr_stream); the header attributes are added after.
     let ids = ObjectIds::new(&scene);
-    let options = ExrOptions {
+    let mut options = ExrOptions {
         layout: match args.exr_layout {
             LayoutArg::Blender => Layout::Blender,
             LayoutArg::Nuke => Layout::Nuke,
         },
         half: args.half,
         compression: args.compression,
-        attributes: strahl::io::metadata::attributes(
-            &scene,
-            &RenderInfo {
-                scene_file: args.scene.display().to_string(),
-                backend: args.backend.name().to_string(),
-                render_seconds,
-            },
-        ),
+        attributes: Vec::new(),
         object_names: ids.object_names.clone(),
         material_names: scene.materials.iter().map(|m| m.name.clone()).collect(),
     };
+    let output = Output { path: &args.output, options: &options };
+    let threads = super::thread_count(args.threads.map(|t| t as usize));
+    let pool = super::thread_pool(threads)?;
+    let (Rendered { film, rays, render_seconds, blocks }, build_seconds) = match args.backend {
+        Backend::Embree => {
+            let device = super::embree_device(threads)?;
+            let build_start = Instant::now();
+            let accel = EmbreeAccel::build(&device, &scene, BuildOptions::default())
+                .with_context(|| format!("{}: cannot build Embree's BVH", args.scene.display()))?;
+            let build_seconds = build_start.elapsed().as_secs_f64();
+            (render(&pool, &scene, &accel, region, &args.scene, &checkpointing, &output)?, build_seconds)
+        }
+        Backend::Native => {
+            let build_start = Instant::now();
+            let accel = pool
+                .install(|| Bvh::build(&scene))
+                .with_context(|| format!("{}: cannot build the native BVH", args.scene.display()))?;
+            let build_seconds = build_start.elapsed().as_secs_f64();
+            (render(&pool, &scene, &accel, region, &args.scene, &checkpointing, &output)?, build_seconds)
+        }
+    };
+
+    options.attributes = strahl::io::metadata::attributes(
+        &scene,
+        &RenderInfo {
+            scene_file: args.scene.display().to_string(),
+            backend: args.backend.name().to_string(),
+            render_seconds,
+        },
+    );
     let write_start = Instant::now();
     // Both files whole in their temporaries first, then renamed together: a failure writing
     // either leaves neither (strahl::io::atomic).
     eprintln!("writing {} ...", args.output.display());
-    let mut staged = vec![strahl::io::exr::stage(&film, &options, &args.output, threads)?];
+    let blocks_seconds = blocks.thread_seconds();
+    let mut staged = vec![blocks.stage(&film, &options, &args.output, threads)?];
     if let Some(png) = &args.png {
         eprintln!("writing {} ...", png.display());
         staged.push(strahl::io::png::stage(&film, args.exposure, png)?);
@@ -314,7 +322,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     );
     println!("  backend: {}, BVH built in {:.1} ms", args.backend.name(), 1e3 * build_seconds);
     println!("  rays: {}", ray_summary(&rays));
-    println!("  time: {render_seconds:.3} s rendering ({:.2} Mrays/s)", mrays_per_second(rays.total(), render_seconds));
+    // The rendering threads also compressed the EXR's blocks as tiles finished: the rays'
+    // rate is over the rest of the time.
+    let compressing = blocks_seconds / threads as f64;
+    println!(
+        "  time: {render_seconds:.3} s rendering ({:.2} Mrays/s), {compressing:.3} s of it compressing the EXR",
+        mrays_per_second(rays.total(), render_seconds - compressing)
+    );
     let mut written = vec![sized(&args.output)];
     written.extend(args.png.as_deref().map(sized));
     println!("  wrote {} in {write_seconds:.3} s", written.join(", "));
@@ -334,8 +348,15 @@ impl Backend {
 struct Rendered {
     film: Film,
     rays: RayCounts,
-    build_seconds: f64,
     render_seconds: f64,
+    /// The EXR's blocks compressed while rendering.
+    blocks: BlockStream,
+}
+
+/// Where the EXR goes and how it is laid out (its header attributes come after rendering).
+struct Output<'a> {
+    path: &'a Path,
+    options: &'a ExrOptions,
 }
 
 /// Where a render keeps its checkpoint and how ([`strahl::checkpoint`]).
@@ -353,7 +374,7 @@ fn tile_delay() -> Option<Duration> {
     std::env::var("STRAHL_TEST_TILE_DELAY_MS").ok()?.parse().ok().map(Duration::from_millis)
 }
 
-/// Renders `region` of `scene` with `accel` (whose build began at `build_start`) on `pool`,
+/// Renders `region` of `scene` with `accel` on `pool`,
 /// with a progress bar, resuming from and saving to the checkpoint as `ckpt` says. On SIGINT
 /// or SIGTERM the tiles under way finish, the checkpoint is saved and this fails saying so
 /// (a second SIGINT exits at once).
@@ -362,11 +383,10 @@ fn render<A: Accel>(
     scene: &Scene,
     accel: &A,
     region: Region,
-    build_start: Instant,
     path: &Path,
     ckpt: &Checkpointing,
+    output: &Output,
 ) -> anyhow::Result<Rendered> {
-    let build_seconds = build_start.elapsed().as_secs_f64();
     let tiles = region.tiles();
     let mut film = Film::for_region(scene.image.width, scene.image.height, region, &scene.output);
     let shown = ckpt.path.display();
@@ -386,6 +406,7 @@ fn render<A: Accel>(
     }
     let todo: Vec<usize> = (0..tiles.len()).filter(|&k| !is_done[k]).collect();
     let todo_tiles: Vec<Region> = todo.iter().map(|&k| tiles[k]).collect();
+    let blocks = BlockStream::new(&film, output.options, output.path, &todo_tiles);
 
     // While the tiles are traced, the first SIGINT/SIGTERM only asks to stop (the checkpoint
     // is saved below); a second one, or any during the writing, exits at once (crate::signals).
@@ -406,6 +427,7 @@ fn render<A: Accel>(
     let delay = tile_delay();
     let on_tile = |k: usize, film: &Mutex<Film>| {
         finished.lock().unwrap_or_else(|p| p.into_inner()).push(todo[k]);
+        blocks.tile_done(&todo_tiles[k], film);
         if let Some(d) = delay {
             std::thread::sleep(d);
         }
@@ -444,7 +466,7 @@ fn render<A: Accel>(
             tiles.len()
         );
     }
-    Ok(Rendered { film, rays, build_seconds, render_seconds })
+    Ok(Rendered { film, rays, render_seconds, blocks })
 }
 
 /// `path (12.3 MB)`: a file written and its size.

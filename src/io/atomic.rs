@@ -94,27 +94,7 @@ pub fn stage_with(
     path: &Path,
     write: impl FnOnce(&mut io::BufWriter<fs::File>) -> io::Result<()>,
 ) -> Result<Staged, WriteError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = directory_of(path);
-    if path.file_name().is_none() {
-        return Err(WriteError::new(path, "is not a file name"));
-    }
-    if !dir.is_dir() {
-        return Err(WriteError::new(path, format!("the directory {} does not exist", dir.display())));
-    }
-    // A name unique to this process and call; `create_new` refuses to reuse a leftover.
-    let (file, tmp) = loop {
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let tmp = dir.join(format!(".strahl-{}-{n}.tmp", std::process::id()));
-        match OpenOptions::new().read(true).write(true).create_new(true).open(&tmp) {
-            Ok(file) => {
-                crate::signals::track(&tmp);
-                break (file, tmp);
-            }
-            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => continue,
-            Err(e) => return Err(WriteError::new(path, format!("cannot create a file in {}: {e}", dir.display()))),
-        }
-    };
+    let (file, tmp) = create_temporary(path)?;
     let staged = Staged { tmp, path: path.to_path_buf(), done: false };
     if let Some(ms) = std::env::var("STRAHL_TEST_WRITE_DELAY_MS").ok().and_then(|v| v.parse().ok()) {
         std::thread::sleep(std::time::Duration::from_millis(ms));
@@ -127,6 +107,56 @@ pub fn stage_with(
     })();
     // On error `staged` is dropped, removing the temporary.
     result.map(|()| staged).map_err(|e| WriteError::new(path, format!("cannot write: {e}")))
+}
+
+/// Creates a new temporary file in the directory of `path` (see the module docs), registered
+/// with [`crate::signals`]; errors name `path`.
+fn create_temporary(path: &Path) -> Result<(fs::File, PathBuf), WriteError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let dir = directory_of(path);
+    if path.file_name().is_none() {
+        return Err(WriteError::new(path, "is not a file name"));
+    }
+    if !dir.is_dir() {
+        return Err(WriteError::new(path, format!("the directory {} does not exist", dir.display())));
+    }
+    // A name unique to this process and call; `create_new` refuses to reuse a leftover.
+    loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".strahl-{}-{n}.tmp", std::process::id()));
+        match OpenOptions::new().read(true).write(true).create_new(true).open(&tmp) {
+            Ok(file) => {
+                crate::signals::track(&tmp);
+                return Ok((file, tmp));
+            }
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => continue,
+            Err(e) => return Err(WriteError::new(path, format!("cannot create a file in {}: {e}", dir.display()))),
+        }
+    }
+}
+
+/// A working file beside an output (a temporary of the module docs' kind) that is never
+/// renamed: removed when dropped, and by [`crate::signals`] if SIGINT or SIGTERM ends the
+/// process first. The EXR encoder keeps the blocks it compresses during a render in one
+/// ([`super::exr_stream`]).
+#[derive(Debug)]
+pub struct Scratch {
+    pub file: fs::File,
+    tmp: PathBuf,
+}
+
+impl Scratch {
+    /// A new, empty scratch file in the directory of `path` (errors name `path`).
+    pub fn beside(path: &Path) -> Result<Scratch, WriteError> {
+        let (file, tmp) = create_temporary(path)?;
+        Ok(Scratch { file, tmp })
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        crate::signals::untrack(&[&self.tmp], || fs::remove_file(&self.tmp)).ok();
+    }
 }
 
 /// Renames every staged file over its destination, in order, with the signal registry locked
@@ -237,6 +267,17 @@ mod tests {
         fs::remove_dir_all(&b).unwrap();
         commit_all(vec![stage(&a, b"new a").unwrap(), stage(&b, b"new b").unwrap()]).unwrap();
         assert_eq!((fs::read(&a).unwrap(), fs::read(&b).unwrap()), (b"new a".to_vec(), b"new b".to_vec()));
+    }
+
+    #[test]
+    fn a_scratch_file_is_removed_when_dropped() {
+        let dir = TempDir::new("scratch");
+        let scratch = Scratch::beside(&dir.0.join("out.exr")).unwrap();
+        (&scratch.file).write_all(b"blocks").unwrap();
+        assert_eq!(entries(&dir.0).len(), 1);
+        assert!(entries(&dir.0)[0].starts_with(".strahl-"));
+        drop(scratch);
+        assert!(entries(&dir.0).is_empty());
     }
 
     #[test]

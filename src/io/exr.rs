@@ -49,7 +49,8 @@
 //! **Streaming.** Blocks of 16 (or 1) lines are cut straight from the film's channels
 //! ([`Film::channels`]), compressed on `threads` threads and written in increasing line order:
 //! no per-channel copy of the frame is made, and the bytes are the same for any number of
-//! threads.
+//! threads. A render compresses its ZIP blocks while the tiles render
+//! ([`super::exr_stream`]); this writer then takes them as they are, with the same bytes.
 
 use std::io::{Cursor, Read, Seek, SeekFrom, Write};
 use std::path::Path;
@@ -205,14 +206,14 @@ pub fn crypto_name(layout: Layout, pass: Pass) -> String {
 }
 
 /// A channel of the file: its name, sample type and where its values come from.
-struct Channel<'a> {
+pub(crate) struct Channel<'a> {
     name: String,
     half: bool,
     view: ChannelView<'a>,
 }
 
 /// The film's channels as the file lists them: named, typed, sorted by name (EXR's order).
-fn file_channels<'a>(film: &'a Film, options: &ExrOptions) -> Vec<Channel<'a>> {
+pub(crate) fn file_channels<'a>(film: &'a Film, options: &ExrOptions) -> Vec<Channel<'a>> {
     let mut channels: Vec<Channel> = film
         .channels()
         .into_iter()
@@ -284,7 +285,7 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
 /// The uncompressed bytes of the block `index` (its position relative to the data window, as
 /// the film's pixels are): line after line, in each line every channel's
 /// samples (in the file's channel order), little-endian.
-fn block_bytes(film: &Film, channels: &[Channel], index: BlockIndex) -> Vec<u8> {
+pub(crate) fn block_bytes(film: &Film, channels: &[Channel], index: BlockIndex) -> Vec<u8> {
     let (x0, w) = (index.pixel_position.0, index.pixel_size.0);
     let bytes_per_pixel: usize = channels.iter().map(|c| if c.half { 2 } else { 4 }).sum();
     let mut out = Vec::with_capacity(bytes_per_pixel * w * index.pixel_size.1);
@@ -312,16 +313,23 @@ pub fn encode_to<W: Write + Seek>(
 ) -> std::result::Result<(), exr::error::Error> {
     let channels = file_channels(film, options);
     let header = header(film, &channels, options)?;
-    write_blocks(header, threads, |index| block_bytes(film, &channels, index), out)
+    write_blocks(header, threads, |index| block_bytes(film, &channels, index), &|_| Ok(None), out)
 }
+
+/// Where a block's compressed bytes may already be: `Ok(Some(bytes))` for block number `i`
+/// (in line order) compressed before, `Ok(None)` to compress it now.
+pub(crate) type Compressed<'a> = dyn Fn(usize) -> std::io::Result<Option<Vec<u8>>> + Sync + 'a;
 
 /// Writes a single-part scan-line file with `header` whose block `index` holds the
 /// uncompressed bytes `block(index)` (line after line, in each line every channel's samples in
 /// the header's channel order), compressing on `threads` threads, blocks in increasing order.
+/// With ZIP, a block that `compressed` has (compressed while the tiles rendered,
+/// [`super::exr_stream`]) is taken from it instead.
 fn write_blocks<W: Write + Seek>(
     header: Header,
     threads: usize,
     block: impl Fn(BlockIndex) -> Vec<u8> + Sync,
+    compressed: &Compressed,
     out: W,
 ) -> std::result::Result<(), exr::error::Error> {
     let zip = matches!(header.compression, exr::compression::Compression::ZIP16 | exr::compression::Compression::ZIP1);
@@ -340,11 +348,17 @@ fn write_blocks<W: Write + Seek>(
                 if batch.is_empty() {
                     return Ok(());
                 }
-                let compressed: Vec<Vec<u8>> = pool.install(|| {
+                let done: Vec<std::io::Result<Vec<u8>>> = pool.install(|| {
                     use rayon::prelude::*;
-                    batch.par_iter().map(|(_, index)| super::exr_zip::compress_block(&block(*index))).collect()
+                    batch
+                        .par_iter()
+                        .map(|(i, index)| {
+                            Ok(compressed(*i)?.unwrap_or_else(|| super::exr_zip::compress_block(&block(*index))))
+                        })
+                        .collect()
                 });
-                for ((index, block_index), pixels) in batch.into_iter().zip(compressed) {
+                for ((index, block_index), pixels) in batch.into_iter().zip(done) {
+                    let pixels = pixels?;
                     // Lines are numbered in the file's coordinates: the data window's origin
                     // (a region's) plus the line in the block's layer.
                     let y_coordinate = i32::try_from(block_index.pixel_position.1)
@@ -393,7 +407,7 @@ pub fn encode_blocks(
     block: impl Fn(BlockIndex) -> Vec<u8> + Sync,
 ) -> std::result::Result<Vec<u8>, exr::error::Error> {
     let mut bytes = Cursor::new(Vec::new());
-    write_blocks(header, threads, block, &mut bytes)?;
+    write_blocks(header, threads, block, &|_| Ok(None), &mut bytes)?;
     let mut bytes = bytes.into_inner();
     sort_header_attributes(&mut bytes);
     Ok(bytes)
@@ -450,9 +464,24 @@ pub fn stage(
     path: &Path,
     threads: usize,
 ) -> std::result::Result<Staged, WriteError> {
+    stage_compressed(film, options, path, threads, &|_| Ok(None))
+}
+
+/// [`stage`], taking the blocks that `compressed` has from it ([`super::exr_stream`]).
+pub(crate) fn stage_compressed(
+    film: &Film,
+    options: &ExrOptions,
+    path: &Path,
+    threads: usize,
+    compressed: &Compressed,
+) -> std::result::Result<Staged, WriteError> {
     let mut encode_error = None;
     let written = stage_with(path, |file| {
-        if let Err(e) = encode_to(film, options, threads, &mut *file) {
+        let channels = file_channels(film, options);
+        let encoded = header(film, &channels, options).and_then(|header| {
+            write_blocks(header, threads, |index| block_bytes(film, &channels, index), compressed, &mut *file)
+        });
+        if let Err(e) = encoded {
             let problem = format!("cannot encode OpenEXR: {e}");
             encode_error = Some(problem.clone());
             return Err(std::io::Error::other(problem));

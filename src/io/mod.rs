@@ -3,6 +3,7 @@
 
 pub mod atomic;
 pub mod exr;
+pub mod exr_stream;
 mod exr_zip;
 pub mod gltf;
 pub mod mesh;
