@@ -21,14 +21,14 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Hit, TraceError};
 use crate::bvh::{self, Bvh};
-use crate::embree::raw_bench::{self, RawQuery, RawRays};
+use crate::embree::raw_bench::{self, RawHit, RawRays};
 use crate::embree::{self, BuildOptions, Device, DeviceOptions, EmbreeAccel};
 use crate::math::Ray;
 use crate::scene::Scene;
 use crate::workload::{self, RayKind};
 
 /// Rays per task handed to the pool (and per `intersect_batch` call).
-const CHUNK: usize = 1024;
+pub const CHUNK: usize = 1024;
 
 /// What to measure.
 #[derive(Clone, Debug, PartialEq)]
@@ -213,18 +213,33 @@ pub fn trace_occluded<A: Accel>(accel: &A, rays: &[Ray], found: &mut [bool], pac
     })
 }
 
-/// Raw Embree queries ([`embree::raw_bench`]) for every ray once on the current pool.
+/// Raw Embree closest-hit queries ([`embree::raw_bench`]) for every ray once on the current
+/// pool.
 pub fn trace_raw(
     scene: &embree::Scene,
-    query: RawQuery,
+    packets: bool,
     rays: &RawRays,
-    found: &mut [u8],
+    hits: &mut [RawHit],
 ) -> Result<(), embree::Error> {
     let chunks: Vec<_> = rays.chunks(CHUNK).collect();
     chunks
         .into_par_iter()
-        .zip(found.par_chunks_mut(CHUNK))
-        .try_for_each(|(rays, found)| raw_bench::trace(scene, query, rays, found))
+        .zip(hits.par_chunks_mut(CHUNK))
+        .try_for_each(|(rays, hits)| raw_bench::intersect(scene, packets, rays, hits))
+}
+
+/// Raw Embree any-hit queries for every ray once on the current pool.
+pub fn trace_raw_occluded(
+    scene: &embree::Scene,
+    packets: bool,
+    rays: &RawRays,
+    occluded: &mut [u8],
+) -> Result<(), embree::Error> {
+    let chunks: Vec<_> = rays.chunks(CHUNK).collect();
+    chunks
+        .into_par_iter()
+        .zip(occluded.par_chunks_mut(CHUNK))
+        .try_for_each(|(rays, occluded)| raw_bench::occluded(scene, packets, rays, occluded))
 }
 
 /// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
@@ -275,24 +290,22 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
         for (kind, rays) in &ray_sets {
             let shadow = *kind == RayKind::Shadow;
             let raw_rays = RawRays::new(rays);
-            let (raw1, raw8) = if shadow {
-                (RawQuery::Occluded1, RawQuery::Occluded8)
-            } else {
-                (RawQuery::Intersect1, RawQuery::Intersect8)
-            };
             // Runs interleave the engines (A B C A B C ...), so that a change in the machine's
             // load hits all of them alike.
             let n = config.engines.len();
             let mut hits = vec![Vec::new(); n];
             let mut found = vec![Vec::new(); n];
             let mut raw_found = vec![Vec::new(); n];
+            let mut raw_hits = vec![Vec::new(); n];
             let mut runs = vec![Vec::new(); n];
             let mut cpu_runs = vec![Vec::new(); n];
             for _ in 0..config.runs.max(1) {
                 for (e, engine) in config.engines.iter().enumerate() {
                     let (hits, found, raw_found) = (&mut hits[e], &mut found[e], &mut raw_found[e]);
+                    let raw_hits = &mut raw_hits[e];
                     match engine {
-                        Engine::RawSingle | Engine::RawPacket => raw_found.resize(rays.len(), 0u8),
+                        Engine::RawSingle | Engine::RawPacket if shadow => raw_found.resize(rays.len(), 0u8),
+                        Engine::RawSingle | Engine::RawPacket => raw_hits.resize(rays.len(), RawHit::default()),
                         _ if shadow => found.resize(rays.len(), false),
                         _ => hits.resize(rays.len(), None),
                     }
@@ -300,8 +313,18 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
                     let (result, s) = pool.install(|| {
                         timed(|| -> Result<(), Error> {
                             match (engine, shadow) {
-                                (Engine::RawSingle, _) => trace_raw(embree.embree_scene(), raw1, &raw_rays, raw_found)?,
-                                (Engine::RawPacket, _) => trace_raw(embree.embree_scene(), raw8, &raw_rays, raw_found)?,
+                                (Engine::RawSingle, false) => {
+                                    trace_raw(embree.embree_scene(), false, &raw_rays, raw_hits)?
+                                }
+                                (Engine::RawPacket, false) => {
+                                    trace_raw(embree.embree_scene(), true, &raw_rays, raw_hits)?
+                                }
+                                (Engine::RawSingle, true) => {
+                                    trace_raw_occluded(embree.embree_scene(), false, &raw_rays, raw_found)?
+                                }
+                                (Engine::RawPacket, true) => {
+                                    trace_raw_occluded(embree.embree_scene(), true, &raw_rays, raw_found)?
+                                }
                                 (Engine::EmbreeSingle, false) => trace(&embree, rays, hits, false)?,
                                 (Engine::EmbreePacket, false) => trace(&embree, rays, hits, true)?,
                                 (Engine::Native, false) => trace(&native, rays, hits, false)?,
@@ -322,7 +345,8 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
             for (e, &engine) in config.engines.iter().enumerate() {
                 let hit_count = hits[e].iter().filter(|h| h.is_some()).count()
                     + found[e].iter().filter(|&&f| f).count()
-                    + raw_found[e].iter().filter(|&&f| f != 0).count();
+                    + raw_found[e].iter().filter(|&&f| f != 0).count()
+                    + raw_hits[e].iter().filter(|h| h.is_hit()).count();
                 report.throughput.push(Throughput {
                     kind: *kind,
                     threads,

@@ -5,8 +5,9 @@
 //! the same rays and the same committed scene (same flags, same BVH), so the wrapper's cost is
 //! `wrapper time / raw time − 1`. The rays are converted to Embree's structs before the clock
 //! starts ([`RawRays::new`]); each loop then copies a ray into the query struct, resets the
-//! hit, calls Embree and stores one word per ray (the hit's geometry id, or whether the ray is
-//! occluded). One query context serves a whole chunk, and errors are read once per chunk.
+//! hit, calls Embree and keeps its answer per ray, as any caller must: a closest hit as the
+//! 32 bytes Embree reports ([`RawHit`]: distance, geometric normal, barycentrics, ids, what
+//! strahl's wrapper keeps too), an any-hit answer as one byte (strahl keeps a `bool`). One query context serves a whole chunk, and errors are read once per chunk.
 //! Planes are not in the Embree scene (strahl tests them in Rust), so these rows measure the
 //! BVH alone: compare them with scenes without planes, such as a bare mesh.
 
@@ -14,17 +15,24 @@ use super::scene::{PACKET_WIDTH, QueryContext, Scene, Valid8};
 use super::{Error, sys};
 use crate::math::Ray;
 
-/// Which Embree call to measure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RawQuery {
-    /// `rtcIntersect1`, one ray at a time.
-    Intersect1,
-    /// `rtcOccluded1`, one ray at a time.
-    Occluded1,
-    /// `rtcIntersect8` on consecutive rays (the last packet of a chunk may be partial).
-    Intersect8,
-    /// `rtcOccluded8` on consecutive rays.
-    Occluded8,
+/// A closest hit as Embree reports it (`tfar` and the `RTCHit` fields a caller reads), which
+/// the raw loops keep per ray as any caller keeps its answers: 32 bytes. `geom_id` is
+/// `RTC_INVALID_GEOMETRY_ID` for a miss.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct RawHit {
+    pub t: f32,
+    pub ng: [f32; 3],
+    pub u: f32,
+    pub v: f32,
+    pub prim_id: u32,
+    pub geom_id: u32,
+}
+
+impl RawHit {
+    pub fn is_hit(&self) -> bool {
+        self.geom_id != sys::RTC_INVALID_GEOMETRY_ID
+    }
 }
 
 /// Rays in Embree's layout, ready for the raw loops (`tnear` already moved up one ulp, as
@@ -64,97 +72,134 @@ impl RawChunk<'_> {
     }
 }
 
-/// Traces `rays` with `query` on `scene`; `found[i]` becomes 1 if ray `i` hit (or is occluded),
-/// else 0. Call from a thread with flush-to-zero on.
-pub fn trace(scene: &Scene, query: RawQuery, rays: RawChunk<'_>, found: &mut [u8]) -> Result<(), Error> {
+/// Closest-hit queries for `rays` on `scene` (`rtcIntersect1`, or `rtcIntersect8` on
+/// consecutive rays with `packets`, the last packet of a chunk partial); `hits[i]` answers
+/// `rays[i]`. Call from a thread with flush-to-zero on.
+pub fn intersect(scene: &Scene, packets: bool, rays: RawChunk<'_>, hits: &mut [RawHit]) -> Result<(), Error> {
     let rays = rays.0;
-    assert_eq!(rays.len(), found.len(), "raw_bench::trace: rays and results differ in length");
+    assert_eq!(rays.len(), hits.len(), "raw_bench::intersect: rays and hits differ in length");
     let raw = scene.raw();
-    let coherent = matches!(query, RawQuery::Intersect8 | RawQuery::Occluded8);
-    let mut ctx = QueryContext::new(coherent);
+    let mut ctx = QueryContext::new(packets);
     let ctx_ptr: *mut QueryContext = &mut ctx;
     #[cfg(embree4)]
-    let flags = if coherent { sys::RTC_RAY_QUERY_FLAG_COHERENT } else { sys::RTC_RAY_QUERY_FLAG_INCOHERENT };
+    let flags = if packets { sys::RTC_RAY_QUERY_FLAG_COHERENT } else { sys::RTC_RAY_QUERY_FLAG_INCOHERENT };
     #[cfg(embree4)]
-    let mut iargs = sys::init_intersect_arguments(flags, ctx_ptr.cast());
-    #[cfg(embree4)]
-    let mut oargs = sys::init_occluded_arguments(flags, ctx_ptr.cast());
-    match query {
-        RawQuery::Intersect1 => {
-            let mut rayhit = sys::RTCRayHit::default();
-            for (ray, found) in rays.iter().zip(found.iter_mut()) {
-                rayhit.ray = *ray;
-                rayhit.hit.geomID = sys::RTC_INVALID_GEOMETRY_ID;
-                rayhit.hit.instID[0] = sys::RTC_INVALID_GEOMETRY_ID;
-                // SAFETY: a committed scene; `rayhit` a valid RTCRayHit; the context, alive for
-                // the loop, begins with Embree's own context.
-                unsafe {
-                    #[cfg(embree3)]
-                    sys::rtcIntersect1(raw, ctx_ptr.cast(), &mut rayhit);
-                    #[cfg(embree4)]
-                    sys::rtcIntersect1(raw, &mut rayhit, &mut iargs);
-                }
-                *found = (rayhit.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID) as u8;
+    let mut args = sys::init_intersect_arguments(flags, ctx_ptr.cast());
+    if !packets {
+        let mut rayhit = sys::RTCRayHit::default();
+        for (ray, out) in rays.iter().zip(hits.iter_mut()) {
+            rayhit.ray = *ray;
+            rayhit.hit.geomID = sys::RTC_INVALID_GEOMETRY_ID;
+            rayhit.hit.instID[0] = sys::RTC_INVALID_GEOMETRY_ID;
+            // SAFETY: a committed scene; `rayhit` a valid RTCRayHit; the context, alive for
+            // the loop, begins with Embree's own context.
+            unsafe {
+                #[cfg(embree3)]
+                sys::rtcIntersect1(raw, ctx_ptr.cast(), &mut rayhit);
+                #[cfg(embree4)]
+                sys::rtcIntersect1(raw, &mut rayhit, &mut args);
             }
+            let h = &rayhit.hit;
+            *out = RawHit {
+                t: rayhit.ray.tfar,
+                ng: [h.Ng_x, h.Ng_y, h.Ng_z],
+                u: h.u,
+                v: h.v,
+                prim_id: h.primID,
+                geom_id: h.geomID,
+            };
         }
-        RawQuery::Occluded1 => {
-            for (r, found) in rays.iter().zip(found.iter_mut()) {
-                let mut ray = *r;
-                // SAFETY: as above, with an RTCRay.
-                unsafe {
-                    #[cfg(embree3)]
-                    sys::rtcOccluded1(raw, ctx_ptr.cast(), &mut ray);
-                    #[cfg(embree4)]
-                    sys::rtcOccluded1(raw, &mut ray, &mut oargs);
-                }
-                *found = (ray.tfar == f32::NEG_INFINITY) as u8;
-            }
+        return ctx.finish("rtcIntersect1");
+    }
+    let mut packet = sys::RTCRayHit8::default();
+    let mut valid = Valid8([0; PACKET_WIDTH]);
+    for (rays, hits) in rays.chunks(PACKET_WIDTH).zip(hits.chunks_mut(PACKET_WIDTH)) {
+        set_lanes(&mut packet.ray, &mut valid, rays);
+        for lane in 0..rays.len() {
+            packet.hit.geomID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
+            packet.hit.instID[0][lane] = sys::RTC_INVALID_GEOMETRY_ID;
         }
-        RawQuery::Intersect8 | RawQuery::Occluded8 => {
-            let mut packet = sys::RTCRayHit8::default();
-            let mut valid = Valid8([0; PACKET_WIDTH]);
-            for (rays, found) in rays.chunks(PACKET_WIDTH).zip(found.chunks_mut(PACKET_WIDTH)) {
-                for lane in 0..PACKET_WIDTH {
-                    let active = lane < rays.len();
-                    valid.0[lane] = if active { -1 } else { 0 };
-                    if !active {
-                        continue;
-                    }
-                    let (r, p) = (&rays[lane], &mut packet.ray);
-                    (p.org_x[lane], p.org_y[lane], p.org_z[lane], p.tnear[lane]) = (r.org_x, r.org_y, r.org_z, r.tnear);
-                    (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane], p.tfar[lane]) = (r.dir_x, r.dir_y, r.dir_z, r.tfar);
-                    p.mask[lane] = u32::MAX;
-                    packet.hit.geomID[lane] = sys::RTC_INVALID_GEOMETRY_ID;
-                    packet.hit.instID[0][lane] = sys::RTC_INVALID_GEOMETRY_ID;
-                }
-                // SAFETY: `valid` and `packet` are 32-byte aligned as the 8-wide calls require
-                // and initialised (inactive lanes are marked 0); the context as above. The
-                // occluded call reads the ray part of the packet, which comes first.
-                unsafe {
-                    match query {
-                        #[cfg(embree3)]
-                        RawQuery::Intersect8 => sys::rtcIntersect8(valid.0.as_ptr(), raw, ctx_ptr.cast(), &mut packet),
-                        #[cfg(embree4)]
-                        RawQuery::Intersect8 => sys::rtcIntersect8(valid.0.as_ptr(), raw, &mut packet, &mut iargs),
-                        #[cfg(embree3)]
-                        _ => sys::rtcOccluded8(valid.0.as_ptr(), raw, ctx_ptr.cast(), &mut packet.ray),
-                        #[cfg(embree4)]
-                        _ => sys::rtcOccluded8(valid.0.as_ptr(), raw, &mut packet.ray, &mut oargs),
-                    }
-                }
-                for (lane, found) in found.iter_mut().enumerate() {
-                    *found = match query {
-                        RawQuery::Intersect8 => packet.hit.geomID[lane] != sys::RTC_INVALID_GEOMETRY_ID,
-                        _ => packet.ray.tfar[lane] == f32::NEG_INFINITY,
-                    } as u8;
-                }
-            }
+        // SAFETY: `valid` and `packet` are 32-byte aligned as rtcIntersect8 requires and
+        // initialised (inactive lanes are marked 0); the context as above.
+        unsafe {
+            #[cfg(embree3)]
+            sys::rtcIntersect8(valid.0.as_ptr(), raw, ctx_ptr.cast(), &mut packet);
+            #[cfg(embree4)]
+            sys::rtcIntersect8(valid.0.as_ptr(), raw, &mut packet, &mut args);
+        }
+        let h = &packet.hit;
+        for (lane, out) in hits.iter_mut().enumerate() {
+            *out = RawHit {
+                t: packet.ray.tfar[lane],
+                ng: [h.Ng_x[lane], h.Ng_y[lane], h.Ng_z[lane]],
+                u: h.u[lane],
+                v: h.v[lane],
+                prim_id: h.primID[lane],
+                geom_id: h.geomID[lane],
+            };
         }
     }
-    ctx.finish(match query {
-        RawQuery::Intersect1 => "rtcIntersect1",
-        RawQuery::Occluded1 => "rtcOccluded1",
-        RawQuery::Intersect8 => "rtcIntersect8",
-        RawQuery::Occluded8 => "rtcOccluded8",
-    })
+    ctx.finish("rtcIntersect8")
+}
+
+/// Any-hit queries for `rays` on `scene` (`rtcOccluded1`, or `rtcOccluded8` with `packets`);
+/// `occluded[i]` becomes 1 if `rays[i]` is blocked, else 0. Call from a thread with
+/// flush-to-zero on.
+pub fn occluded(scene: &Scene, packets: bool, rays: RawChunk<'_>, occluded: &mut [u8]) -> Result<(), Error> {
+    let rays = rays.0;
+    assert_eq!(rays.len(), occluded.len(), "raw_bench::occluded: rays and answers differ in length");
+    let raw = scene.raw();
+    let mut ctx = QueryContext::new(packets);
+    let ctx_ptr: *mut QueryContext = &mut ctx;
+    #[cfg(embree4)]
+    let flags = if packets { sys::RTC_RAY_QUERY_FLAG_COHERENT } else { sys::RTC_RAY_QUERY_FLAG_INCOHERENT };
+    #[cfg(embree4)]
+    let mut args = sys::init_occluded_arguments(flags, ctx_ptr.cast());
+    if !packets {
+        for (r, out) in rays.iter().zip(occluded.iter_mut()) {
+            let mut ray = *r;
+            // SAFETY: as in `intersect`, with an RTCRay.
+            unsafe {
+                #[cfg(embree3)]
+                sys::rtcOccluded1(raw, ctx_ptr.cast(), &mut ray);
+                #[cfg(embree4)]
+                sys::rtcOccluded1(raw, &mut ray, &mut args);
+            }
+            *out = (ray.tfar == f32::NEG_INFINITY) as u8;
+        }
+        return ctx.finish("rtcOccluded1");
+    }
+    let mut packet = sys::RTCRay8::default();
+    let mut valid = Valid8([0; PACKET_WIDTH]);
+    for (rays, occluded) in rays.chunks(PACKET_WIDTH).zip(occluded.chunks_mut(PACKET_WIDTH)) {
+        set_lanes(&mut packet, &mut valid, rays);
+        // SAFETY: `valid` and `packet` are 32-byte aligned as rtcOccluded8 requires and
+        // initialised (inactive lanes are marked 0); the context as above.
+        unsafe {
+            #[cfg(embree3)]
+            sys::rtcOccluded8(valid.0.as_ptr(), raw, ctx_ptr.cast(), &mut packet);
+            #[cfg(embree4)]
+            sys::rtcOccluded8(valid.0.as_ptr(), raw, &mut packet, &mut args);
+        }
+        for (lane, out) in occluded.iter_mut().enumerate() {
+            *out = (packet.tfar[lane] == f32::NEG_INFINITY) as u8;
+        }
+    }
+    ctx.finish("rtcOccluded8")
+}
+
+/// Copies up to eight rays into the lanes of `packet`, marking the others inactive.
+fn set_lanes(packet: &mut sys::RTCRay8, valid: &mut Valid8, rays: &[sys::RTCRay]) {
+    for lane in 0..PACKET_WIDTH {
+        let Some(r) = rays.get(lane) else {
+            valid.0[lane] = 0;
+            continue;
+        };
+        valid.0[lane] = -1;
+        (packet.org_x[lane], packet.org_y[lane], packet.org_z[lane], packet.tnear[lane]) =
+            (r.org_x, r.org_y, r.org_z, r.tnear);
+        (packet.dir_x[lane], packet.dir_y[lane], packet.dir_z[lane], packet.tfar[lane]) =
+            (r.dir_x, r.dir_y, r.dir_z, r.tfar);
+        packet.mask[lane] = u32::MAX;
+    }
 }
