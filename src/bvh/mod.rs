@@ -675,9 +675,13 @@ impl TraversalRay {
     fn new(ray: &Ray) -> Self {
         // 1/±0 = ±∞: the slab of an axis the ray runs parallel to is (−∞, ∞) from inside and
         // empty from outside; on its plane, 0·∞ = NaN, which the axial test ignores.
-        let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
-        let near = std::array::from_fn(|a| if inv[a].is_sign_negative() { a + 3 } else { a });
-        let far = std::array::from_fn(|a| if inv[a].is_sign_negative() { a } else { a + 3 });
+        // One division, sign and class tests for the three axes at once (the fourth lane, 1/1,
+        // is masked out).
+        let inv4 = Vec4::ONE / ray.dir.extend(1.0);
+        let negative = inv4.is_negative_bitmask();
+        let near = std::array::from_fn(|a| a + 3 * (negative >> a & 1) as usize);
+        let far = std::array::from_fn(|a| a + 3 - 3 * (negative >> a & 1) as usize);
+        let inv = [inv4.x, inv4.y, inv4.z];
         TraversalRay {
             org: [Vec4::splat(ray.org.x), Vec4::splat(ray.org.y), Vec4::splat(ray.org.z)],
             inv: inv.map(Vec4::splat),
@@ -685,7 +689,8 @@ impl TraversalRay {
             near,
             far,
             tnear: Vec4::splat(ray.tnear),
-            axial: inv.iter().any(|i| !i.is_finite() || *i == 0.0),
+            // Some 1/d not finite, or zero.
+            axial: (!inv4.abs().cmplt(Vec4::INFINITY).bitmask() | inv4.cmpeq(Vec4::ZERO).bitmask()) & 0b111 != 0,
         }
     }
 }
