@@ -544,9 +544,15 @@ impl Bvh {
                     if rest & (rest - 1) == 0 {
                         // Two children: descend into the nearer, push the farther.
                         let second = rest.trailing_zeros() as usize;
-                        let (near, far) = if entry[second] < entry[first] { (second, first) } else { (first, second) };
-                        stack.push((node.children[far], entry[far]));
-                        cur = node.children[near];
+                        let (c0, c1) = (node.children[first], node.children[second]);
+                        let (e0, e1) = (entry[first], entry[second]);
+                        if e1 < e0 {
+                            stack.push((c0, e0));
+                            cur = c1;
+                        } else {
+                            stack.push((c1, e1));
+                            cur = c0;
+                        }
                         continue;
                     }
                     // Three or more: sort by entry distance, push the others farthest first.
