@@ -33,6 +33,8 @@ fn output(c: &mut Criterion) {
             })
         });
     }
+    group.throughput(Throughput::Elements(film.rgba.len() as u64));
+    group.bench_function("png_1920x1080", |b| b.iter(|| strahl::io::png::encode(&film, 0.0).expect("encodes").len()));
     group.finish();
 }
 
