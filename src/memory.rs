@@ -16,7 +16,7 @@
 //! - **film**: 4 bytes per float per pixel of the region, over every pass (RGBA, Z, N, albedo,
 //!   and the AOVs with their floats per pixel, Cryptomatte included).
 //! - **output**: a quarter of the film (the compressed EXR blocks kept while rendering, at most
-//!   a sixteenth of the film or 32 MB, [`crate::io::exr_stream`]; the encoder's per-block
+//!   a sixteenth of the film, 32 to 256 MB, [`crate::io::exr_stream`]; the encoder's per-block
 //!   buffers and the PNG) plus
 //!   [`OUTPUT_BASE_BYTES`]. Measured: 3840 × 2160, default passes (44 bytes of film per pixel):
 //!   420 MB peak against 130 MB at 1920 × 1080, 49 bytes per pixel in all.

@@ -21,9 +21,10 @@
 //!
 //! **Where the compressed blocks wait.** The EXR's header holds the render time, so the file
 //! is written after the render, and blocks complete out of line order anyway (each thread works
-//! through its own stretch of tiles). They wait in memory up to [`BlockStream::budget`] (an
-//! sixteenth of the film's bytes, at least 32 MB: the whole compressed 1920 × 1080 frame of
-//! default passes, 24.6 MB, for the Whitted scene), the rest in a scratch file beside the
+//! through its own stretch of tiles). They wait in memory up to [`BlockStream::budget`] (a
+//! sixteenth of the film's bytes, at least 32 MB, the whole compressed 1920 × 1080 frame of
+//! default passes, 24.6 MB, for the Whitted scene, and at most 256 MB, 2 % of a 16384² film),
+//! the rest in a scratch file beside the
 //! output ([`Scratch`], created when first needed), which costs a write and a read through
 //! the page cache: on the 1-thread 1920 × 1080 Whitted frame, all of it in a scratch file took
 //! 0.03–0.05 s more system time than all of it in memory. The budget keeps a 3840 × 2160 frame
@@ -125,9 +126,9 @@ impl BlockStream {
     }
 
     /// The bytes of compressed blocks kept in memory for a film of `film_bytes` bytes: an
-    /// sixteenth of it, at least 32 MB (see the module docs).
+    /// sixteenth of it, at least 32 MB and at most 256 MB (see the module docs).
     pub fn budget(film_bytes: usize) -> usize {
-        (film_bytes / 16).max(32 << 20)
+        (film_bytes / 16).clamp(32 << 20, 256 << 20)
     }
 
     /// The blocks that `tile` overlaps, with the number of its pixels in each.
