@@ -325,8 +325,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // The rendering threads also compressed the EXR's blocks as tiles finished: the rays'
     // rate is over the rest of the time.
     let compressing = blocks_seconds / threads as f64;
+    let share =
+        if compressing > 0.0 { format!(", {compressing:.3} s of it compressing the EXR") } else { String::new() };
     println!(
-        "  time: {render_seconds:.3} s rendering ({:.2} Mrays/s), {compressing:.3} s of it compressing the EXR",
+        "  time: {render_seconds:.3} s rendering ({:.2} Mrays/s){share}",
         mrays_per_second(rays.total(), render_seconds - compressing)
     );
     let mut written = vec![sized(&args.output)];
