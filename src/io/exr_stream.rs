@@ -125,7 +125,7 @@ impl BlockStream {
         stream
     }
 
-    /// The bytes of compressed blocks kept in memory for a film of `film_bytes` bytes: an
+    /// The bytes of compressed blocks kept in memory for a film of `film_bytes` bytes: a
     /// sixteenth of it, at least 32 MB and at most 256 MB (see the module docs).
     pub fn budget(film_bytes: usize) -> usize {
         (film_bytes / 16).clamp(32 << 20, 256 << 20)
@@ -202,9 +202,14 @@ impl BlockStream {
     }
 
     /// Writes the finished `film` as [`super::exr::stage`] does (the same bytes), taking the
-    /// kept blocks (each freed as it is written); the scratch file goes when this returns.
+    /// kept blocks (each freed as it is written) if `options` lay the blocks out as the
+    /// stream's did; the scratch file goes when this returns.
     pub fn stage(self, film: &Film, options: &ExrOptions, path: &Path, threads: usize) -> Result<Staged, WriteError> {
-        let Some(held) = self.held else { return super::exr::stage(film, options, path, threads) };
+        let o = &self.options;
+        let same_layout = (o.layout, o.half, o.compression) == (options.layout, options.half, options.compression);
+        let Some(held) = self.held.filter(|_| same_layout) else {
+            return super::exr::stage(film, options, path, threads);
+        };
         let held = held.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
         let blocks: Vec<Mutex<Option<Stored>>> = held.blocks.into_iter().map(Mutex::new).collect();
         let scratch = held.scratch;
@@ -292,6 +297,30 @@ mod tests {
         kept
     }
 
+    /// Streams with the default options, then writes with `half`: the file is the plain
+    /// encoder's with `half`. Returns how many blocks had been kept (and were not used).
+    fn check_other_layout_at_the_end(region: Region) -> usize {
+        let output = OutputSpec { passes: PassSet::all(), ..Default::default() };
+        let dir = std::env::temp_dir().join(format!("strahl-stream-half-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("out.exr");
+        let tiles = region.tiles();
+        let film = Mutex::new(Film::for_region(200, 150, region, &output));
+        let stream = BlockStream::new(&film.lock().unwrap(), &ExrOptions::default(), &path, &tiles);
+        for tile in &tiles {
+            paint(&mut film.lock().unwrap(), tile);
+            stream.tile_done(tile, &film);
+        }
+        let kept = stream.kept().0;
+        let film = film.into_inner().unwrap();
+        let half = ExrOptions { half: true, ..Default::default() };
+        super::super::atomic::commit_all(vec![stream.stage(&film, &half, &path, 1).unwrap()]).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), super::super::exr::encode(&film, &half, 1).unwrap());
+        std::fs::remove_dir_all(&dir).unwrap();
+        kept
+    }
+
     #[test]
     fn the_streamed_file_is_the_plain_encoders_in_any_tile_order() {
         // 150 lines: ten 16-line blocks (the last short); tiles not aligned to the blocks.
@@ -315,5 +344,7 @@ mod tests {
         assert_eq!(check(full, Compression::Zip, &restored, 1, all), (count - 1, 0));
         // Other compressions are written at the end, as before.
         assert_eq!(check(full, Compression::Piz, &[], 1, all), (0, 0));
+        // Blocks kept for one layout are not used for another.
+        assert_eq!(check_other_layout_at_the_end(full), count);
     }
 }
