@@ -1,7 +1,12 @@
-//! The AVX2 traversal kernel: one 8-wide slab test per node instead of two 4-wide ones, and
-//! the whole traversal (triangle tests included) compiled with AVX2 enabled, chosen at run
+//! The AVX2 traversal kernel: one 8-wide slab test per node instead of two 4-wide ones, a
+//! leaf's triangle blocks tested two at a time (eight triangles per 8-wide pass, the odd block
+//! with the 4-wide test), and the whole traversal compiled with AVX2 enabled, chosen at run
 //! time where the CPU has it (`is_x86_feature_detected!`); the portable kernel stays for the
 //! others.
+//!
+//! The triangle test is `triangle::intersect4`'s, lane for lane (no fused multiply-add), and
+//! the nearest of the eight lanes is chosen with its rule (ties to the lowest lane, so to the
+//! first block): the same hit as the two blocks tested in turn.
 //!
 //! The slab test is the portable one's, lane for lane: `t = (bound − org)·inv` for the near
 //! slabs, `(bound − org)·(inv·(1 + 2γ₃))` for the far ones, the same max/min reduction trees
