@@ -221,11 +221,7 @@ pub fn trace_raw(
     rays: &RawRays,
     hits: &mut [RawHit],
 ) -> Result<(), embree::Error> {
-    let chunks: Vec<_> = rays.chunks(CHUNK).collect();
-    chunks
-        .into_par_iter()
-        .zip(hits.par_chunks_mut(CHUNK))
-        .try_for_each(|(rays, hits)| raw_bench::intersect(scene, packets, rays, hits))
+    in_chunks(rays, hits, |rays, hits| raw_bench::intersect(scene, packets, rays, hits))
 }
 
 /// Raw Embree any-hit queries for every ray once on the current pool.
@@ -235,11 +231,17 @@ pub fn trace_raw_occluded(
     rays: &RawRays,
     occluded: &mut [u8],
 ) -> Result<(), embree::Error> {
+    in_chunks(rays, occluded, |rays, occluded| raw_bench::occluded(scene, packets, rays, occluded))
+}
+
+/// Runs `trace` on the pool over [`CHUNK`]-sized pieces of `rays` and their answers.
+fn in_chunks<T: Send>(
+    rays: &RawRays,
+    answers: &mut [T],
+    trace: impl Fn(raw_bench::RawChunk<'_>, &mut [T]) -> Result<(), embree::Error> + Sync,
+) -> Result<(), embree::Error> {
     let chunks: Vec<_> = rays.chunks(CHUNK).collect();
-    chunks
-        .into_par_iter()
-        .zip(occluded.par_chunks_mut(CHUNK))
-        .try_for_each(|(rays, occluded)| raw_bench::occluded(scene, packets, rays, occluded))
+    chunks.into_par_iter().zip(answers.par_chunks_mut(CHUNK)).try_for_each(|(rays, answers)| trace(rays, answers))
 }
 
 /// Traces every ray once on the current pool; `packets` uses `intersect_batch` per chunk.
