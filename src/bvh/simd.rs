@@ -192,21 +192,12 @@ impl BoxTest for Boxes8 {
         let mut pairs = blocks.chunks_exact(2);
         for (i, pair) in pairs.by_ref().enumerate() {
             let (t, ok, w1, w2, det) = triangles8(frame, &pair[0].triangles, &pair[1].triangles, tnear, tfar);
-            let mut mask = ok;
-            if mask == 0 {
+            if ok == 0 {
                 continue;
             }
-            // The nearest of the lanes that hit, ties to the lowest (block `2i` first): what
-            // `intersect4` on the two blocks in turn finds.
-            let mut lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            while mask != 0 {
-                let l = mask.trailing_zeros() as usize;
-                if t[l] < t[lane] {
-                    lane = l;
-                }
-                mask &= mask - 1;
-            }
+            // Ties to the lowest lane (block `2i` first): what `intersect4` on the two blocks
+            // in turn finds.
+            let lane = triangle::nearest_lane(ok, &t);
             let hit = TriangleHit { t: t[lane], u: w1[lane] / det[lane], v: w2[lane] / det[lane] };
             tfar = hit.t;
             best = Some((2 * i + lane / 4, lane % 4, hit));

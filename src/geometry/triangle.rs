@@ -275,11 +275,18 @@ pub fn intersect4(frame: &RayFrame4, tris: &Triangle4, tnear: f32, tfar: f32) ->
     let det = w0 + w1 + w2;
     let t = (w0 * az + w1 * bz + w2 * cz) / det;
     let ok = inside & det.cmpne(zero) & t.cmpgt(Vec4::splat(tnear)) & t.cmplt(Vec4::splat(tfar));
-    let mut mask = ok.bitmask();
+    let mask = ok.bitmask();
     if mask == 0 {
         return None;
     }
-    // The nearest of the lanes that hit (usually just one).
+    let best = nearest_lane(mask, &t.to_array());
+    Some((best, TriangleHit { t: t[best], u: w1[best] / det[best], v: w2[best] / det[best] }))
+}
+
+/// The lane of `mask` (not empty) with the smallest `t`, ties to the lowest lane: the nearest
+/// of the triangles a SIMD test hit (usually just one).
+#[inline(always)]
+pub fn nearest_lane(mut mask: u32, t: &[f32]) -> usize {
     let mut best = mask.trailing_zeros() as usize;
     mask &= mask - 1;
     while mask != 0 {
@@ -289,7 +296,7 @@ pub fn intersect4(frame: &RayFrame4, tris: &Triangle4, tnear: f32, tfar: f32) ->
         }
         mask &= mask - 1;
     }
-    Some((best, TriangleHit { t: t[best], u: w1[best] / det[best], v: w2[best] / det[best] }))
+    best
 }
 
 /// Whether any of the four triangles is hit inside `(tnear, tfar)` (shadow rays).
