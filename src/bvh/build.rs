@@ -2,12 +2,11 @@
 //! parallel with rayon, deterministic whatever the thread count.
 //!
 //! Every node bins its primitives' centroids into slabs per axis ([`BINS`], fewer for small
-//! nodes: [`node_bins`]) and picks the plane between two slabs that minimises the SAH cost
+//! nodes: `node_bins`) and picks the plane between two slabs that minimises the SAH cost
 //! `A_L·N_L + A_R·N_R` (with `N` counted in blocks of four, the width of the leaf test), or
-//! makes a leaf when that is cheaper. Bin
-//! counts and box unions are exact and order-independent (integer sums, min/max), the
-//! partition is sequential, and subtrees are built with `rayon::join`: the tree is the same
-//! for one thread or many.
+//! makes a leaf when that is cheaper. Bin counts and box unions are exact and
+//! order-independent (integer sums, min/max), the partition is sequential, and subtrees are
+//! built with `rayon::join`: the tree is the same for one thread or many.
 
 use rayon::prelude::*;
 
@@ -53,7 +52,7 @@ const CHUNK: usize = 16 * 1024;
 /// A primitive as the build sees it (32 bytes, two aligned SIMD loads): its box's corners in
 /// `lo.xyz` and `hi.xyz`, its index in the caller's list in `lo.w` and whether it is a sphere
 /// (leaves hold one kind only) in `hi.w`, 1 or 0. The index is kept as the bits of a normal
-/// float ([`ID_TAG`]` | id`), so that arithmetic on the whole vector never meets a denormal
+/// float (`ID_TAG | id`), so that arithmetic on the whole vector never meets a denormal
 /// (which costs a microcode assist per operation on many CPUs).
 #[derive(Clone, Copy, Debug)]
 pub struct PrimRef {
@@ -300,24 +299,26 @@ fn area(min: Vec3A, max: Vec3A) -> f32 {
     2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
 }
 
-/// The cheapest split: `(cost, axis, bins left of the plane)`, relative to the node's area;
-/// the first of equal costs wins. Every plane is evaluated and the best one selected without
-/// branches (the bins' occupancy, and so which planes split anything, is unpredictable).
-fn best_split(bins: &Bins, nb: usize) -> Option<(f32, usize, usize)> {
+/// The cheapest split among the first `used` bins of each axis (the node's
+/// [`Binning::bins`]): `(cost, axis, bins left of the plane)`, relative to the node's area;
+/// the first of equal costs wins. Every plane between those bins is evaluated and the best one
+/// selected without branches (the bins' occupancy, and so which planes split anything, is
+/// unpredictable).
+fn best_split(bins: &Bins, used: usize) -> Option<(f32, usize, usize)> {
     let (mut found, mut best) = (false, (0.0, 0, 0));
     for (axis, bins) in bins.iter().enumerate() {
         // Right-to-left sweep: area and count of everything right of each plane.
         let mut right_area = [0.0f32; BINS];
         let mut right_count = [0u32; BINS];
         let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
-        for i in (1..nb).rev() {
+        for i in (1..used).rev() {
             (min, max) = (min.min(bins[i].min), max.max(bins[i].max));
             n += bins[i].count;
             right_area[i] = area(min, max);
             right_count[i] = n;
         }
         let (mut min, mut max, mut n) = (EMPTY_BIN.min, EMPTY_BIN.max, 0);
-        for i in 1..nb {
+        for i in 1..used {
             (min, max) = (min.min(bins[i - 1].min), max.max(bins[i - 1].max));
             n += bins[i - 1].count;
             let cost = area(min, max) * blocks(n as usize) + right_area[i] * blocks(right_count[i] as usize);
