@@ -10,7 +10,7 @@
 //! ([`WorldNormals`]).
 //!
 //! The top tree splits the instances at the median of their box centres along the widest
-//! axis, down to leaves of [`TOP_LEAF`]; it is small (a node per two instances) and its build
+//! axis, down to leaves of `TOP_LEAF`; it is small (a node per two instances) and its build
 //! is deterministic.
 
 use glam::Affine3A;

@@ -9,7 +9,7 @@
 //!   contiguous.
 //! - Traversal: a stack of node references, nearest child first, eight slab tests per node
 //!   with a precomputed inverse direction and the near slab chosen by the direction's signs:
-//!   one 8-wide AVX2 pass where the CPU has AVX2 ([`simd`], which also prefetches the
+//!   one 8-wide AVX2 pass where the CPU has AVX2 (`simd`, which also prefetches the
 //!   children a ray will visit), else two 4-wide passes with glam's `Vec4` ([`Kernel`]); leaves run the watertight triangle test four at a time
 //!   ([`triangle::intersect4`]) and the lecture's sphere quadratic ([`sphere::intersect`], the
 //!   function Embree's callbacks call too). The closest triangle hit's `t` is recomputed in
@@ -114,7 +114,7 @@ impl Traversal {
 pub enum Kernel {
     /// glam's 4-wide vectors: two passes per 8-wide node, on any CPU.
     Portable,
-    /// One 8-wide AVX2 pass per node, the whole traversal compiled for AVX2 ([`simd`]).
+    /// One 8-wide AVX2 pass per node, the whole traversal compiled for AVX2 (`simd`).
     #[cfg(target_arch = "x86_64")]
     Avx2,
 }

@@ -30,7 +30,7 @@
 //! with `--half`, 3.3× smaller).
 //!
 //! **Compression** ([`Compression`]): ZIP over 16 lines by default, deflated by strahl
-//! itself at zlib level 1 on `threads` threads ([`super::exr_zip`]; the `exr` crate's level-4
+//! itself at zlib level 1 on `threads` threads (`exr_zip`; the `exr` crate's level-4
 //! miniz_oxide took 7.2 s for the 4K Whitted frame on 2 threads, 82.2 MB; level 1, also
 //! miniz_oxide (`flate2`'s default backend), 3.1 s, 91.1 MB. `flate2`'s zlib-rs backend measured
 //! no faster: 1920 × 1080 Whitted, 1 thread, output 0.43–0.62 s against 0.42–0.47 s, 25.2 MB
@@ -400,7 +400,7 @@ pub fn encode(film: &Film, options: &ExrOptions, threads: usize) -> std::result:
 
 /// The one way strahl makes an EXR file's bytes, a render's and `strahl merge`'s alike: a
 /// single-part scan-line file with `header` and the blocks `block(index)` (see
-/// [`write_blocks`]), its header attributes in name order so that the bytes are reproducible.
+/// `write_blocks`), its header attributes in name order so that the bytes are reproducible.
 pub fn encode_blocks(
     header: Header,
     threads: usize,
@@ -456,7 +456,7 @@ pub fn write(film: &Film, options: &ExrOptions, path: &Path, threads: usize) -> 
     commit_all(vec![stage(film, options, path, threads)?])
 }
 
-/// [`write`] up to the temporary file, to be renamed with [`commit_all`] (with its PNG
+/// [`write()`] up to the temporary file, to be renamed with [`commit_all`] (with its PNG
 /// preview, say).
 pub fn stage(
     film: &Film,

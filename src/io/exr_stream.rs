@@ -8,7 +8,7 @@
 //! the start, so each block counts only the pixels of the tiles to render
 //! ([`BlockStream::new`]), and the tile that brings its count to zero
 //! ([`BlockStream::tile_done`]) gathers the block from the film (under the film's lock),
-//! compresses it outside the lock and keeps the bytes ([`Held`]). When the render ends,
+//! compresses it outside the lock and keeps the bytes (`Held`). When the render ends,
 //! [`BlockStream::stage`] writes the EXR through the one writer ([`super::exr::stage`]),
 //! which takes every block in line order from those kept, compressing there only the blocks no
 //! rendered tile completed (all of a resumed render's restored ones; every block of the other

@@ -100,7 +100,7 @@ pub fn write(film: &Film, exposure_ev: f32, path: &Path) -> Result<(), WriteErro
     commit_all(vec![stage(film, exposure_ev, path)?])
 }
 
-/// [`write`] up to the temporary file, to be renamed with [`commit_all`] (with the EXR it
+/// [`write()`] up to the temporary file, to be renamed with [`commit_all`] (with the EXR it
 /// previews, say).
 pub fn stage(film: &Film, exposure_ev: f32, path: &Path) -> Result<Staged, WriteError> {
     if !exposure_ev.is_finite() {

@@ -1,4 +1,4 @@
-//! The geometry that makes area lights visible: every [`AreaLight`] of a scene also becomes
+//! The geometry that makes area lights visible: every [`AreaLight`](crate::light::area::AreaLight) of a scene also becomes
 //! an object that camera, mirror and glass rays hit, with a material that emits the light's
 //! radiance (on its front only, unless the light is two-sided) and reflects nothing.
 //!
