@@ -6,7 +6,8 @@
 //! - Layout ([`node`]): the binary tree collapsed into 8-wide nodes (eight child boxes in
 //!   structure-of-arrays form, 256 bytes), in one flat array; triangles copied into leaf
 //!   blocks of four ([`Triangle4`], with their ids) in tree order, so a leaf's triangles are
-//!   contiguous.
+//!   contiguous. Both arrays, and the build's primitive references, on 2-MB pages where
+//!   Linux grants them (`simd::huge_page_vec`), as Embree's BVH is.
 //! - Traversal: a stack of node references, nearest child first, eight slab tests per node
 //!   with a precomputed inverse direction and the near slab chosen by the direction's signs:
 //!   one 8-wide AVX2 pass where the CPU has AVX2 (`simd`, which also prefetches the
@@ -223,9 +224,8 @@ struct Leaves<'a> {
 impl Leaves<'_> {
     /// The triangle blocks, in the order the collapse emitted them.
     fn blocks(&self) -> Vec<Block> {
-        self.block_refs
-            .par_iter()
-            .map(|&(start, count)| {
+        simd::huge_page_vec(self.block_refs.len(), |blocks| {
+            blocks.par_extend(self.block_refs.par_iter().map(|&(start, count)| {
                 let mut block = Block::EMPTY;
                 for (lane, r) in self.refs[start as usize..(start + count) as usize].iter().enumerate() {
                     let (mesh, tri) = self.tri_ids.locate(r.id() as usize);
@@ -233,8 +233,8 @@ impl Leaves<'_> {
                     (block.geom_ids[lane], block.prim_ids[lane]) = (mesh, tri);
                 }
                 block
-            })
-            .collect()
+            }))
+        })
     }
 }
 
@@ -294,19 +294,25 @@ impl Bvh {
             return Err(invalid("scene".into(), format!("{n} primitives are more than the native BVH can index")));
         }
         let tri_ids = TriangleIds::new(scene);
-        let mut refs: Vec<PrimRef> = Vec::with_capacity(n);
-        for (m, mesh) in scene.meshes.iter().enumerate() {
-            let start = tri_ids.starts[m];
-            refs.par_extend(
-                mesh.indices
-                    .par_iter()
+        // On huge pages: the build reads and partitions them all (1 thread −5 %, fewer faults).
+        let mut refs = simd::huge_page_vec(n, |refs| {
+            for (m, mesh) in scene.meshes.iter().enumerate() {
+                let start = tri_ids.starts[m];
+                refs.par_extend(
+                    mesh.indices
+                        .par_iter()
+                        .enumerate()
+                        .map(|(t, _)| PrimRef::new(triangle::bounds(mesh.triangle(t)), (start + t) as u32, false)),
+                );
+            }
+            refs.extend(
+                scene
+                    .spheres
+                    .iter()
                     .enumerate()
-                    .map(|(t, _)| PrimRef::new(triangle::bounds(mesh.triangle(t)), (start + t) as u32, false)),
+                    .map(|(i, s)| PrimRef::new(sphere_bounds(s), (n_tris + i) as u32, true)),
             );
-        }
-        refs.extend(
-            scene.spheres.iter().enumerate().map(|(i, s)| PrimRef::new(sphere_bounds(s), (n_tris + i) as u32, true)),
-        );
+        });
         let tree = build::build(&mut refs, options);
         let mut leaves = Leaves {
             refs: &refs,
@@ -318,7 +324,10 @@ impl Bvh {
         };
         let (nodes, root, bounds) = match &tree {
             Some(t) => {
-                let (nodes, root) = node::collapse(t, &mut leaves);
+                let (collapsed, root) = node::collapse(t, &mut leaves);
+                // The collapse grows its vector, so it is copied once onto huge pages (7 MB
+                // for the full dragon).
+                let nodes = simd::huge_page_vec(collapsed.len(), |nodes| nodes.extend_from_slice(&collapsed));
                 (nodes, root, t.bounds())
             }
             None => (Vec::new(), ChildRef::EMPTY, Aabb::EMPTY),
