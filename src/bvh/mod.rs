@@ -322,15 +322,15 @@ impl Bvh {
             spheres: Vec::with_capacity(scene.spheres.len()),
             sphere_ids: Vec::with_capacity(scene.spheres.len()),
         };
-        let (nodes, root, bounds) = match &tree {
+        let (nodes, root, depth, bounds) = match &tree {
             Some(t) => {
-                let (collapsed, root) = node::collapse(t, &mut leaves);
+                let (collapsed, root, depth) = node::collapse(t, &mut leaves);
                 // The collapse grows its vector, so it is copied once onto huge pages (7 MB
                 // for the full dragon).
                 let nodes = simd::huge_page_vec(collapsed.len(), |nodes| nodes.extend_from_slice(&collapsed));
-                (nodes, root, t.bounds())
+                (nodes, root, depth, t.bounds())
             }
-            None => (Vec::new(), ChildRef::EMPTY, Aabb::EMPTY),
+            None => (Vec::new(), ChildRef::EMPTY, 0, Aabb::EMPTY),
         };
         let blocks = leaves.blocks();
         if nodes.len() > node::MAX_NODE_INDEX {
@@ -349,17 +349,10 @@ impl Bvh {
             planes: scene.planes.clone(),
             spheres_geom_id: scene.spheres_geom_id(),
             planes_geom_id: scene.planes_geom_id(),
-            shallow: false,
+            shallow: (WIDTH - 1) * depth <= STACK,
             instances: instance::Instances::build(scene)?.map(Box::new),
             kernel: Traversal::of(Kernel::best()).unwrap_or(Traversal::Portable),
-        }
-        .with_stack_choice())
-    }
-
-    /// Chooses the fixed stack when every path holds few enough inner nodes.
-    fn with_stack_choice(mut self) -> Self {
-        self.shallow = (WIDTH - 1) * self.stats().depth <= STACK;
-        self
+        })
     }
 
     /// The traversal kernel in use.
@@ -840,6 +833,28 @@ impl Accel for Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Mesh;
+
+    #[test]
+    fn the_stack_is_chosen_by_the_depth_the_stats_walk_finds() {
+        // Chains of triangles at growing distances along x: the SAH peels them off one at a
+        // time, so the depth grows with the length, through the fixed stack's limit.
+        let (mut shallow, mut deep) = (0, 0);
+        for n in (2..=1000).step_by(40) {
+            let mut mesh = Mesh { name: "chain".into(), ..Default::default() };
+            for k in 0..n {
+                let (x, i) = (1.02f32.powi(k), mesh.positions.len() as u32);
+                mesh.positions.extend([Vec3::new(x, -1.0, -1.0), Vec3::new(x, 1.0, -1.0), Vec3::new(x, 0.0, 1.0)]);
+                mesh.indices.push([i, i + 1, i + 2]);
+            }
+            let scene = Scene { meshes: vec![mesh], ..Default::default() };
+            let bvh = Bvh::build_with(&scene, &BuildOptions { max_leaf: 1, traversal_cost: 1.0 }).unwrap();
+            let depth = bvh.stats().depth;
+            assert_eq!(bvh.shallow, (WIDTH - 1) * depth <= STACK, "{n} triangles, depth {depth}");
+            *(if bvh.shallow { &mut shallow } else { &mut deep }) += 1;
+        }
+        assert!(shallow > 0 && deep > 0, "{shallow} shallow, {deep} deep");
+    }
 
     /// A node whose child 0 is the unit cube and child 5 the cube `[2, 3] × [0, 1] × [0, 1]`;
     /// the other lanes are empty.

@@ -120,24 +120,19 @@ pub trait LeafSink {
 /// Collapses the binary tree into 8-wide nodes. Each node takes its two children and keeps
 /// opening the inner child with the largest surface area until it has eight (fewer only where
 /// the children are leaves).
-/// Returns the nodes and the root reference.
-pub fn collapse(root: &Node2, sink: &mut impl LeafSink) -> (Vec<Node>, ChildRef) {
+/// Returns the nodes, the root reference and the depth (the inner nodes on the longest path
+/// from the root, as [`crate::bvh::Stats::depth`] counts them).
+pub fn collapse(root: &Node2, sink: &mut impl LeafSink) -> (Vec<Node>, ChildRef, usize) {
     let mut nodes = Vec::new();
-    let root_ref = emit(root, sink, &mut nodes);
-    (nodes, root_ref)
-}
-
-fn emit(node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node>) -> ChildRef {
-    match node {
+    match root {
         Node2::Leaf { start, count, .. } => {
             debug_assert!(*count as usize <= MAX_LEAF);
-            sink.leaf(*start as usize, *count as usize)
+            (nodes, sink.leaf(*start as usize, *count as usize), 0)
         }
         Node2::Inner { .. } => {
-            let index = nodes.len();
             nodes.push(Node::EMPTY);
-            fill(index, node, sink, nodes);
-            ChildRef::node(index)
+            let depth = fill(0, root, sink, &mut nodes);
+            (nodes, ChildRef::node(0), depth)
         }
     }
 }
@@ -171,8 +166,8 @@ fn open_children(node: &Node2) -> ([&Node2; WIDTH], usize) {
 
 /// Fills `nodes[index]` from the binary node `node`. The node's inner children are allocated
 /// next to each other before any of their subtrees, so that siblings share pages and
-/// neighbouring cache lines.
-fn fill(index: usize, node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node>) {
+/// neighbouring cache lines. Returns the depth of the subtree (1 for a node of leaves).
+fn fill(index: usize, node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<Node>) -> usize {
     let (children, len) = open_children(node);
     let mut inner = [(0, node); WIDTH];
     let mut n_inner = 0;
@@ -191,9 +186,7 @@ fn fill(index: usize, node: &Node2, sink: &mut impl LeafSink, nodes: &mut Vec<No
         };
         nodes[index].set(lane, child.bounds(), r);
     }
-    for &(i, child) in &inner[..n_inner] {
-        fill(i, child, sink, nodes);
-    }
+    inner[..n_inner].iter().map(|&(i, child)| fill(i, child, sink, nodes)).max().unwrap_or(0) + 1
 }
 
 #[cfg(test)]
