@@ -294,7 +294,7 @@ impl Bvh {
             return Err(invalid("scene".into(), format!("{n} primitives are more than the native BVH can index")));
         }
         let tri_ids = TriangleIds::new(scene);
-        // On huge pages: the build reads and partitions them all (1 thread −5 %, fewer faults).
+        // On huge pages too: the build reads and partitions them all, over and over.
         let mut refs = simd::huge_page_vec(n, |refs| {
             for (m, mesh) in scene.meshes.iter().enumerate() {
                 let start = tri_ids.starts[m];

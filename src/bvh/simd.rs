@@ -27,8 +27,8 @@
 //! And the memory the kernels read: [`huge_page_vec`] asks Linux for 2-MB pages under the
 //! BVH's nodes and triangle blocks (one `madvise` call, as Embree does for its own BVH), so a
 //! random ray's scattered reads stop missing the TLB as well as the cache. Measured on the
-//! full dragon, 1 thread: random rays 4.38 → 5.09 Mrays/CPU-s alone, native / raw Embree
-//! 1.15 → 1.09 in the full bench (docs/performance.md, "Huge pages").
+//! full dragon (`strahl bench`, 3 alternations): random rays 4.52 → 4.92 Mrays/CPU-s on one
+//! thread, native / raw Embree 1.15–1.17 → 1.05–1.06 (docs/performance.md, "Huge pages").
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
