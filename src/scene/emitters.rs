@@ -1,6 +1,7 @@
-//! The geometry that makes area lights visible: every [`AreaLight`](crate::light::area::AreaLight) of a scene also becomes
-//! an object that camera, mirror and glass rays hit, with a material that emits the light's
-//! radiance (on its front only, unless the light is two-sided) and reflects nothing.
+//! The geometry that makes area lights visible: every
+//! [`AreaLight`](crate::light::area::AreaLight) of a scene also becomes an object that camera,
+//! mirror and glass rays hit, with a material that emits the light's radiance (on its front
+//! only, unless the light is two-sided) and reflects nothing.
 //!
 //! A quad is two triangles wound so that their normal is `edge1 × edge2`, a sphere an exact
 //! sphere, and a disk a fan of [`DISK_SEGMENTS`] triangles inscribed in the circle: its area is
