@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use glam::{Vec3A, Vec4};
 
+use super::simd;
 use crate::math::Aabb;
 
 /// Centroid bins per axis (of nodes of more than 64 primitives).
@@ -200,6 +201,8 @@ struct Binning {
     scale: Vec3A,
     /// Bins in use per axis (at most [`BINS`]).
     bins: usize,
+    /// The last bin's index, `bins − 1`, in every lane.
+    last: Vec3A,
 }
 
 impl Binning {
@@ -209,7 +212,7 @@ impl Binning {
         // Slightly under bins/extent so that the far edge falls into the last bin.
         let scale =
             Vec3A::select(extent.cmpgt(Vec3A::ZERO), Vec3A::splat(bins as f32 * (1.0 - 1e-6)) / extent, Vec3A::ZERO);
-        Binning { origin: s.cmin, scale, bins }
+        Binning { origin: s.cmin, scale, bins, last: Vec3A::splat((bins - 1) as f32) }
     }
 
     /// The centroid's position in bin units along each axis (a bin index before truncation).
@@ -219,12 +222,22 @@ impl Binning {
     }
 }
 
-/// The bin of a position in bin units: `(p as usize).min(BINS - 1)` (NaN and negative
-/// positions in bin 0), through a 32-bit conversion, which takes fewer instructions than a
-/// saturating one to `usize`.
+/// The bin of a position in bin units: `(p as usize).min(bins - 1)` (NaN and negative
+/// positions in bin 0). The position is clamped to `0 ..= bins − 1` as a float first (NaN
+/// to 0: `max` returns its other operand), so that the truncation needs no saturation: one
+/// conversion instruction ([`simd::truncate`]) where Rust's saturating `as` takes two
+/// compares and two conditional moves more, and a clamp as integers two more. The same
+/// index for every float; the mask, a no-op, spares the bins' bounds check.
 #[inline(always)]
 fn bin_index(p: f32, bins: usize) -> usize {
-    (p as i32).clamp(0, bins as i32 - 1) as usize
+    simd::truncate(p.max(0.0).min((bins - 1) as f32)) as usize & (BINS - 1)
+}
+
+/// [`bin_index`] of the three lanes of `p` at once (`last` is `bins − 1` in every lane): one
+/// clamp and one conversion for all three.
+#[inline(always)]
+fn bin_indices(p: Vec3A, last: Vec3A) -> [usize; 3] {
+    simd::truncate3(p.max(Vec3A::ZERO).min(last)).map(|i| i as usize & (BINS - 1))
 }
 
 /// Centroid bins per axis for a node of `n` refs: [`BINS`] above 64 refs, 16 up to 64, 8 up
@@ -248,10 +261,10 @@ const EMPTY_BINS: Bins = [[EMPTY_BIN; BINS]; 3];
 /// Adds `refs` to `bins`.
 fn bin_refs(refs: &[PrimRef], binning: &Binning, bins: &mut Bins) {
     for r in refs {
-        let p = binning.position(r.centroid());
+        let index = bin_indices(binning.position(r.centroid()), binning.last);
         let (min, max) = (r.min(), r.max());
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[bin_index(p[axis], binning.bins)];
+            let b = &mut axis_bins[index[axis]];
             b.min = b.min.min(min);
             b.max = b.max.max(max);
             b.count += 1;
@@ -452,6 +465,31 @@ mod tests {
             Node2::Inner { children, .. } => {
                 for c in children.iter() {
                     leaves(c, out, depth + 1, max_depth);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bin_indices_are_the_saturating_conversions_clamped() {
+        // What the bins were before the conversion without saturation, for every kind of
+        // float: NaN, infinities, negatives, huge values, both sides of every bin edge.
+        let expected = |p: f32, bins: usize| (p as i32).clamp(0, bins as i32 - 1) as usize;
+        let mut ps = vec![f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 0.0, f32::MAX, f32::MIN];
+        ps.extend([2.0f32.powi(31), 2.0f32.powi(31) - 128.0, -(2.0f32.powi(31)), 1e-30, -1e-30]);
+        for i in -2..=34 {
+            let edge = i as f32;
+            ps.extend([edge, edge.next_up(), edge.next_down(), edge + 0.5]);
+        }
+        for bins in [8, 16, BINS] {
+            let last = Vec3A::splat((bins - 1) as f32);
+            for &p in &ps {
+                assert_eq!(bin_index(p, bins), expected(p, bins), "{p} in {bins} bins");
+                for lane in 0..3 {
+                    let mut v = Vec3A::splat(1.5);
+                    v[lane] = p;
+                    let want = [0, 1, 2].map(|l| expected(v[l], bins));
+                    assert_eq!(bin_indices(v, last), want, "{v} in {bins} bins");
                 }
             }
         }
