@@ -427,7 +427,7 @@ fn advise<T>(_: &Vec<T>, _: Advice) {}
 /// `x as i32` for `x` in `i32`'s range (the build's bin positions, clamped to the bins
 /// first) in one conversion instruction: Rust's `as` saturates, which costs two compares and
 /// two conditional moves more per conversion, in the build's hottest loop. Outside that
-/// range (and for NaN) the result is `i32::MIN`, not `as`'s.
+/// range (and for NaN) the result on x86-64 is `i32::MIN`, not `as`'s.
 #[inline(always)]
 pub(super) fn truncate(x: f32) -> i32 {
     #[cfg(target_arch = "x86_64")]
