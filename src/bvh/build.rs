@@ -525,13 +525,11 @@ mod tests {
 
     #[test]
     fn two_sets_of_bins_bin_as_one() {
-        // Boxes scattered by a simple LCG, some sharing bins in runs, as refs deep in a tree.
-        let mut x = 12345u32;
-        let mut next = || {
-            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (x >> 8) as f32 / (1 << 24) as f32
-        };
-        let points: Vec<Vec3> = (0..PAIRED * 3 + 1).map(|i| Vec3::new(next(), (i / 7) as f32, next())).collect();
+        // Boxes scattered at random, some sharing bins in runs, as refs deep in a tree.
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        let points: Vec<Vec3> =
+            (0..PAIRED * 3 + 1).map(|i| Vec3::new(rng.random(), (i / 7) as f32, rng.random())).collect();
         let refs = point_refs(&points);
         let binning = Binning::new(&Summary::of(&refs), refs.len());
         let mut paired = EMPTY_BINS;
