@@ -201,8 +201,6 @@ struct Binning {
     scale: Vec3A,
     /// Bins in use per axis (at most [`BINS`]).
     bins: usize,
-    /// The last bin's index, `bins − 1`, in every lane.
-    last: Vec3A,
 }
 
 impl Binning {
@@ -212,7 +210,7 @@ impl Binning {
         // Slightly under bins/extent so that the far edge falls into the last bin.
         let scale =
             Vec3A::select(extent.cmpgt(Vec3A::ZERO), Vec3A::splat(bins as f32 * (1.0 - 1e-6)) / extent, Vec3A::ZERO);
-        Binning { origin: s.cmin, scale, bins, last: Vec3A::splat((bins - 1) as f32) }
+        Binning { origin: s.cmin, scale, bins }
     }
 
     /// The centroid's position in bin units along each axis (a bin index before truncation).
@@ -233,11 +231,11 @@ fn bin_index(p: f32, bins: usize) -> usize {
     simd::truncate(p.max(0.0).min((bins - 1) as f32)) as usize & (BINS - 1)
 }
 
-/// [`bin_index`] of the three lanes of `p` at once (`last` is `bins − 1` in every lane): one
-/// clamp and one conversion for all three.
+/// [`bin_index`] of the three lanes of `p` at once: one clamp and one conversion for all
+/// three.
 #[inline(always)]
-fn bin_indices(p: Vec3A, last: Vec3A) -> [usize; 3] {
-    simd::truncate3(p.max(Vec3A::ZERO).min(last)).map(|i| i as usize & (BINS - 1))
+fn bin_indices(p: Vec3A, bins: usize) -> [usize; 3] {
+    simd::truncate3(p.max(Vec3A::ZERO).min(Vec3A::splat((bins - 1) as f32))).map(|i| i as usize & (BINS - 1))
 }
 
 /// Centroid bins per axis for a node of `n` refs: [`BINS`] above 64 refs, 16 up to 64, 8 up
@@ -290,7 +288,7 @@ const PAIRED: usize = 64;
 /// Adds one ref to its bin on each axis.
 #[inline(always)]
 fn bin_ref(r: &PrimRef, binning: &Binning, bins: &mut Bins) {
-    let index = bin_indices(binning.position(r.centroid()), binning.last);
+    let index = bin_indices(binning.position(r.centroid()), binning.bins);
     let (min, max) = (r.min(), r.max());
     for (axis, axis_bins) in bins.iter_mut().enumerate() {
         let b = &mut axis_bins[index[axis]];
@@ -510,14 +508,13 @@ mod tests {
             ps.extend([edge, edge.next_up(), edge.next_down(), edge + 0.5]);
         }
         for bins in [8, 16, BINS] {
-            let last = Vec3A::splat((bins - 1) as f32);
             for &p in &ps {
                 assert_eq!(bin_index(p, bins), expected(p, bins), "{p} in {bins} bins");
                 for lane in 0..3 {
                     let mut v = Vec3A::splat(1.5);
                     v[lane] = p;
                     let want = [0, 1, 2].map(|l| expected(v[l], bins));
-                    assert_eq!(bin_indices(v, last), want, "{v} in {bins} bins");
+                    assert_eq!(bin_indices(v, bins), want, "{v} in {bins} bins");
                 }
             }
         }
