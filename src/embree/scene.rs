@@ -451,12 +451,12 @@ impl Scene {
         let mut valid = Valid8([0; PACKET_WIDTH]);
         let mut packet = sys::RTCRayHit8::default();
         for (k, (rays, hits)) in rays.chunks(PACKET_WIDTH).zip(hits.chunks_mut(PACKET_WIDTH)).enumerate() {
-            // Every lane's ray and mask written in a loop of fixed length, as the raw loop
-            // does (`raw_bench::set_lanes`); the loop over the chunk's rays alone, which
-            // cleared `valid` only for a last partial packet, measured 3–4 %
-            // slower on primary rays (`strahl bench`, strahl x8 / raw x8 1.022–1.075 →
-            // 0.971–1.030, 6 alternations; not on the hits' side: the old loop without the
-            // primID reset measured as before). Misses' primID is never read.
+            // Every lane's ray and `valid` entry written in a loop of fixed length, as the raw
+            // loop does (`raw_bench::set_lanes`); the loop over the chunk's rays alone, which
+            // cleared `valid` only for a last partial packet, measured 3–4 % slower on primary
+            // rays (`strahl bench`, strahl x8 / raw x8 1.022–1.075 → 0.971–1.030, 6
+            // alternations; not on the hits' side: the old loop without the primID reset
+            // measured as before). Misses' primID is never read.
             for lane in 0..PACKET_WIDTH {
                 let Some(r) = rays.get(lane) else {
                     valid.0[lane] = 0;
