@@ -7,6 +7,10 @@
 //! wrapper costs 5 %; `native / raw x1` is the native BVH against Embree on the same BVH
 //! flags (ROBUST, as strahl builds it).
 //!
+//! The native BVH's line also gives its surface-area cost in Embree's units ([`bvh::Stats`]:
+//! the expected node visits and block tests of a random ray), to hold beside what Embree
+//! prints for its own tree with `verbose=2`.
+//!
 //! Each figure is the median of a few runs; a run traces every ray once, in chunks spread over
 //! a rayon pool of the given size whose workers flush denormals to zero (as Embree asks).
 //! Besides wall-clock Mrays/s, where Linux tells (`/proc/self/task/*/schedstat`), each run
@@ -380,13 +384,16 @@ impl fmt::Display for Report {
         if let Some(s) = &self.native {
             writeln!(
                 f,
-                "native BVH: {} nodes, {} leaves, {} triangle blocks ({:.2} triangles each), depth {}, {:.1} MB",
+                "native BVH: {} nodes, {} leaves, {} triangle blocks ({:.2} triangles each), depth {}, {:.1} MB, \
+                 SAH {:.2} (nodes) + {:.2} (leaves)",
                 s.nodes,
                 s.leaves,
                 s.triangle_blocks,
                 s.triangles as f64 / s.triangle_blocks.max(1) as f64,
                 s.depth,
-                s.bytes as f64 / 1e6
+                s.bytes as f64 / 1e6,
+                s.sah_nodes,
+                s.sah_leaves
             )?;
         }
         write!(f, "{:<24}", "build ms")?;

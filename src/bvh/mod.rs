@@ -856,6 +856,25 @@ mod tests {
         assert!(shallow > 0 && deep > 0, "{shallow} shallow, {deep} deep");
     }
 
+    #[test]
+    fn the_sah_is_the_expected_visits_and_block_tests_of_a_random_ray() {
+        // Five copies of a unit right triangle (two blocks) and, nine further along x, one
+        // (one block): the root (area 1 relative to itself) holds the two leaves, each box
+        // 1 × 1 against the root's 10 × 1 (all flat in z: areas 2·1 and 2·10), so the leaves
+        // cost 0.1 · 2 + 0.1 · 1.
+        let mut mesh = Mesh { name: "two".into(), ..Default::default() };
+        for x in [0.0, 0.0, 0.0, 0.0, 0.0, 9.0] {
+            let i = mesh.positions.len() as u32;
+            mesh.positions.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)]);
+            mesh.indices.push([i, i + 1, i + 2]);
+        }
+        let scene = Scene { meshes: vec![mesh], ..Default::default() };
+        let stats = Bvh::build_with(&scene, &BuildOptions { max_leaf: 8, traversal_cost: 1.0 }).unwrap().stats();
+        assert_eq!((stats.nodes, stats.leaves, stats.triangle_blocks), (1, 2, 3));
+        assert!((stats.sah_nodes - 1.0).abs() < 1e-9, "{}", stats.sah_nodes);
+        assert!((stats.sah_leaves - 0.3).abs() < 1e-6, "{}", stats.sah_leaves);
+    }
+
     /// A node whose child 0 is the unit cube and child 5 the cube `[2, 3] × [0, 1] × [0, 1]`;
     /// the other lanes are empty.
     fn two_boxes() -> Node {
