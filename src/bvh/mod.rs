@@ -45,7 +45,7 @@ pub enum Error {
     InvalidInput { object: String, problem: String },
 }
 
-use simd::{ArrayStack, STACK};
+use simd::{ArrayStack, STACK, StackItems};
 
 /// The traversal stack: a fixed array for the usual trees ([`ArrayStack`], nothing to set up
 /// per ray), a vector for deeper ones.
@@ -472,9 +472,10 @@ impl Bvh {
     /// axial variant chosen.
     #[inline(always)]
     fn intersect_by(&self, ray: &Ray, tfar: f32, r: &TraversalRay, boxes: &impl BoxTest) -> Option<Found> {
+        let mut items = StackItems::<_, STACK>::new();
         match (self.shallow, r.axial) {
-            (true, false) => self.intersect_with::<false>(ray, tfar, boxes, ArrayStack::<_, STACK>::new()),
-            (true, true) => self.intersect_with::<true>(ray, tfar, boxes, ArrayStack::<_, STACK>::new()),
+            (true, false) => self.intersect_with::<false>(ray, tfar, boxes, ArrayStack::new(&mut items)),
+            (true, true) => self.intersect_with::<true>(ray, tfar, boxes, ArrayStack::new(&mut items)),
             (false, false) => self.intersect_with::<false>(ray, tfar, boxes, Vec::new()),
             (false, true) => self.intersect_with::<true>(ray, tfar, boxes, Vec::new()),
         }
@@ -483,9 +484,10 @@ impl Bvh {
     /// [`Bvh::occluded_tree`] with the slab test `boxes` (made from `r`).
     #[inline(always)]
     fn occluded_by(&self, ray: &Ray, r: &TraversalRay, boxes: &impl BoxTest) -> bool {
+        let mut items = StackItems::<_, STACK>::new();
         match (self.shallow, r.axial) {
-            (true, false) => self.occluded_with::<false>(ray, boxes, ArrayStack::<_, STACK>::new()),
-            (true, true) => self.occluded_with::<true>(ray, boxes, ArrayStack::<_, STACK>::new()),
+            (true, false) => self.occluded_with::<false>(ray, boxes, ArrayStack::new(&mut items)),
+            (true, true) => self.occluded_with::<true>(ray, boxes, ArrayStack::new(&mut items)),
             (false, false) => self.occluded_with::<false>(ray, boxes, Vec::new()),
             (false, true) => self.occluded_with::<true>(ray, boxes, Vec::new()),
         }
