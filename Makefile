@@ -95,7 +95,9 @@ test-mitsuba: deps
 
 # A real one-node Slurm cluster on localhost (installs Debian's Slurm and munge when missing;
 # needs root): an 8-tile `strahl farm slurm` render merged equals a single-process render.
-test-slurm: build
+# `make test-slurm STRAHL=path/to/strahl` runs that binary instead of building the release one
+# (CI passes the one `make test` has just built, which saves a 2-minute release build).
+test-slurm: $(if $(filter command line,$(origin STRAHL)),deps,build)
 	STRAHL=$(abspath $(STRAHL)) bash tools/test-slurm.sh
 
 # glTF files from tools strahl did not write: Blender's own exporter (needs `blender`; its
