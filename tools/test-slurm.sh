@@ -58,6 +58,8 @@ fi
 # 2. strahl.
 STRAHL=${STRAHL:-$ROOT/target/release/strahl}
 if [ ! -x "$STRAHL" ]; then
+  # Build only the default binary: a STRAHL given (`make test-slurm STRAHL=...`) is not rebuilt.
+  [ "$STRAHL" = "$ROOT/target/release/strahl" ] || fail "no executable strahl at $STRAHL"
   log "building strahl"
   cargo build --release --locked -q || fail "cannot build strahl"
 fi
