@@ -570,17 +570,15 @@ impl Bvh {
         }
         let first = mask.trailing_zeros() as usize;
         let rest = mask & (mask - 1);
-        if rest != 0 {
-            // Several children: fetch them all at once rather than one by one.
-            let mut m = mask;
-            while m != 0 {
-                r.prefetch(self, node.children[m.trailing_zeros() as usize]);
-                m &= m - 1;
-            }
-        }
         if rest == 0 {
             // One child: descend.
             return Some(node.children[first]);
+        }
+        // Several children: fetch them all at once rather than one by one.
+        let mut m = mask;
+        while m != 0 {
+            r.prefetch(self, node.children[m.trailing_zeros() as usize]);
+            m &= m - 1;
         }
         if rest & (rest - 1) == 0 {
             // Two children: descend into the nearer, push the farther.

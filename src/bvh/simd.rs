@@ -23,7 +23,7 @@
 //! The traversal stack of both kernels lives here too ([`ArrayStack`]): an array left
 //! uninitialised, read only below the entries pushed (one `unsafe` read, measured: filling
 //! it per ray cost a tenth of a primary ray), its count kept apart from it so that the count
-//! stays in a register (measured: 1.5-2.5 % of every ray kind).
+//! stays in a register (measured: 1-2.6 % of every ray kind).
 //!
 //! And the memory the kernels read: [`huge_page_vec`] asks Linux for 2-MB pages under the
 //! BVH's nodes and triangle blocks (one `madvise` call, as Embree does for its own BVH), so a
