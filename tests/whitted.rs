@@ -65,7 +65,7 @@ fn point_irradiance(p: DVec3) -> DVec3 {
     INTENSITY.as_dvec3() * cos / to.length_squared()
 }
 
-fn assert_rgb(film: &strahl::film::Film, x: u32, y: u32, expected: DVec3, what: &str) {
+fn assert_rgb(film: &strahl::output::film::Film, x: u32, y: u32, expected: DVec3, what: &str) {
     let px = film.rgba[film.index(x, y)];
     for c in 0..3 {
         assert!(rel(px[c], expected[c]) <= 1e-5, "{what}: pixel ({x}, {y}) channel {c}: {} vs {}", px[c], expected[c]);

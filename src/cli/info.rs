@@ -78,7 +78,7 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
         format!("degenerate triangles dropped: {dropped}"),
         format!(
             "memory estimate: {} at {} × {} (strahl render refuses more than --max-memory)",
-            strahl::memory::estimate(scene, scene.image.width as u64 * scene.image.height as u64),
+            strahl::job::memory::estimate(scene, scene.image.width as u64 * scene.image.height as u64),
             scene.image.width,
             scene.image.height
         ),

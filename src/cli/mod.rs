@@ -14,8 +14,8 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use strahl::io::MeshFormat;
-use strahl::workload::RayKind;
+use strahl::scene::load::MeshFormat;
+use strahl::verify::workload::RayKind;
 
 /// strahl: an offline Whitted-style ray tracer over Intel Embree.
 #[derive(Parser, Debug)]
@@ -45,7 +45,7 @@ enum Command {
 /// What `strahl --version` prints: strahl's version, then the Embree library it loaded (version,
 /// headers when they differ, ISA), or why no Embree device could be created.
 pub fn version_report() -> String {
-    let embree = match strahl::embree::Device::new() {
+    let embree = match strahl::accel::embree::Device::new() {
         Ok(device) => device.describe(),
         Err(e) => format!("Embree unavailable: {e}"),
     };
@@ -54,8 +54,8 @@ pub fn version_report() -> String {
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    // SIGINT/SIGTERM remove the temporary files of outputs being written (strahl::signals).
-    strahl::signals::install().context("cannot install the signal handlers")?;
+    // SIGINT/SIGTERM remove the temporary files of outputs being written (strahl::sys::signals).
+    strahl::sys::signals::install().context("cannot install the signal handlers")?;
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
@@ -72,7 +72,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// file (OBJ, PLY) as a scene of that mesh alone ([`strahl::scene::from_mesh_file`]), told
 /// apart by the file's extension.
 fn load_scene_with_camera(path: &Path, camera: Option<&str>) -> anyhow::Result<strahl::scene::Loaded> {
-    let loaded = if strahl::io::gltf::is_gltf(path) {
+    let loaded = if strahl::scene::load::gltf::is_gltf(path) {
         strahl::scene::from_gltf_file(path, camera)?
     } else if camera.is_some() {
         anyhow::bail!("{}: --camera chooses among the cameras of a glTF file; this is not one", path.display());
@@ -95,7 +95,7 @@ fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
 
 /// The image settings of the command line (`--width`, `--height`, `--spp`, `--depth`; `None`
 /// keeps the scene's) applied to `image` of the scene at `path`, checked as the scene file's
-/// own are ([`strahl::scene::file::image_problem`]).
+/// own are ([`strahl::scene::load::file::image_problem`]).
 fn override_image(
     path: &Path,
     image: &mut strahl::scene::ImageSpec,
@@ -105,15 +105,15 @@ fn override_image(
     image.height = height.unwrap_or(image.height);
     image.spp = spp.unwrap_or(image.spp);
     image.max_depth = depth.unwrap_or(image.max_depth);
-    if let Some((_, problem)) = strahl::scene::file::image_problem(image) {
+    if let Some((_, problem)) = strahl::scene::load::file::image_problem(image) {
         anyhow::bail!("{}: with the command-line settings: {problem}", path.display());
     }
     Ok(())
 }
 
 /// The passes of `--passes LIST`.
-fn parse_passes(list: &[String]) -> anyhow::Result<strahl::passes::PassSet> {
-    strahl::passes::PassSet::parse(list).map_err(|m| anyhow::anyhow!("--passes: {m}"))
+fn parse_passes(list: &[String]) -> anyhow::Result<strahl::output::passes::PassSet> {
+    strahl::output::passes::PassSet::parse(list).map_err(|m| anyhow::anyhow!("--passes: {m}"))
 }
 
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).
@@ -172,14 +172,14 @@ fn thread_pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("strahl-{i}"))
-        .start_handler(|_| strahl::embree::enable_flush_to_zero())
+        .start_handler(|_| strahl::accel::embree::enable_flush_to_zero())
         .build()
         .with_context(|| format!("cannot start {threads} threads"))
 }
 
 /// An Embree device that builds BVHs on `threads` threads.
-fn embree_device(threads: usize) -> anyhow::Result<strahl::embree::Device> {
-    strahl::embree::Device::with_options(strahl::embree::DeviceOptions { threads: Some(threads) })
+fn embree_device(threads: usize) -> anyhow::Result<strahl::accel::embree::Device> {
+    strahl::accel::embree::Device::with_options(strahl::accel::embree::DeviceOptions { threads: Some(threads) })
         .context("cannot start Embree")
 }
 

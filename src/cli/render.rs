@@ -2,10 +2,10 @@
 //! [--region X0,Y0,X1,Y1 | --tile I/N] [--checkpoint-every S] [--resume]`: loads the scene
 //! (its warnings on stderr), applies the command-line overrides, checks the outputs can be
 //! written, picks the pixels to render (the whole image, a region, or a farm tile:
-//! [`strahl::region`]), builds the backend's BVH (Embree's, or the native one), renders on a pool of
+//! [`strahl::output::region`]), builds the backend's BVH (Embree's, or the native one), renders on a pool of
 //! `--threads` workers with a progress bar, writes the EXR (and PNG) atomically and prints a
 //! summary: resolution, samples, backend, rays by kind, time, Mrays/s, build time. While it
-//! renders it saves the finished tiles to `OUT.exr.checkpoint` ([`strahl::checkpoint`]) every
+//! renders it saves the finished tiles to `OUT.exr.checkpoint` ([`strahl::output::checkpoint`]) every
 //! `--checkpoint-every` seconds and on SIGINT/SIGTERM; `--resume` continues from it; the
 //! finished render removes it.
 //!
@@ -21,21 +21,21 @@ use super::progress::Progress;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use strahl::Accel;
-use strahl::bvh::Bvh;
-use strahl::checkpoint;
-use strahl::embree::{BuildOptions, EmbreeAccel};
-use strahl::film::Film;
-use strahl::ids::ObjectIds;
+use strahl::accel::bvh::Bvh;
+use strahl::accel::embree::{BuildOptions, EmbreeAccel};
 use strahl::integrator::{self, RayCounts, TileJob};
-use strahl::io::MeshFormat;
-use strahl::io::atomic::{directory_of, write_atomically_with};
-use strahl::io::exr::{Compression, ExrOptions, Layout};
-use strahl::io::exr_stream::BlockStream;
-use strahl::io::metadata::RenderInfo;
-use strahl::io::same_file::same_file;
-use strahl::passes::MAX_CRYPTO_LEVELS;
-use strahl::region::Region;
+use strahl::output::checkpoint;
+use strahl::output::exr::{Compression, ExrOptions, Layout};
+use strahl::output::exr_stream::BlockStream;
+use strahl::output::film::Film;
+use strahl::output::ids::ObjectIds;
+use strahl::output::metadata::RenderInfo;
+use strahl::output::passes::MAX_CRYPTO_LEVELS;
+use strahl::output::region::Region;
 use strahl::scene::Scene;
+use strahl::scene::load::MeshFormat;
+use strahl::sys::atomic::{directory_of, write_atomically_with};
+use strahl::sys::same_file::same_file;
 
 /// Arguments of `strahl render`.
 #[derive(Args, Debug)]
@@ -53,7 +53,7 @@ pub struct RenderArgs {
     png: Option<PathBuf>,
     /// Refuse, before building anything, a render whose estimated memory (as `strahl info`
     /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: 3/4 of physical memory].
-    #[arg(long, value_name = "SIZE", value_parser = strahl::memory::parse_size)]
+    #[arg(long, value_name = "SIZE", value_parser = strahl::job::memory::parse_size)]
     max_memory: Option<u64>,
     /// Image width in pixels (overrides the scene's).
     #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
@@ -137,7 +137,7 @@ fn parse_compression(name: &str) -> Result<Compression, String> {
 pub enum Backend {
     /// Intel Embree (triangles in its BVH, spheres as user geometry).
     Embree,
-    /// strahl's pure-Rust BVH (`strahl::bvh`).
+    /// strahl's pure-Rust BVH (`strahl::accel::bvh`).
     Native,
 }
 
@@ -159,11 +159,11 @@ fn check_output(path: &Path, extension: &str, what: &str) -> anyhow::Result<()> 
 
 /// Refuses, before rendering, an output (EXR, PNG, checkpoint) that is any file the scene was
 /// read from (the scene, its meshes, MTL libraries, textures, glTF buffers and images:
-/// [`strahl::io::read::inputs_read`]), through any link or spelling (`strahl::io::same_file`).
+/// [`strahl::sys::read::inputs_read`]), through any link or spelling (`strahl::sys::same_file`).
 fn refuse_inputs_as_outputs(args: &RenderArgs) -> anyhow::Result<()> {
     let checkpoint = checkpoint::path_for(&args.output);
     let outputs = [Some(&args.output), args.png.as_ref(), Some(&checkpoint)];
-    let read = strahl::io::read::inputs_read();
+    let read = strahl::sys::read::inputs_read();
     for input in std::iter::once(&args.scene).chain(&read) {
         for output in outputs.iter().flatten() {
             if same_file(input, output) {
@@ -174,10 +174,10 @@ fn refuse_inputs_as_outputs(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Refuses a render whose estimated memory ([`strahl::memory::estimate`]) is over
+/// Refuses a render whose estimated memory ([`strahl::job::memory::estimate`]) is over
 /// `--max-memory` (default 3/4 of the machine's memory), saying what it needs and what to do.
 fn refuse_over_budget(args: &RenderArgs, scene: &Scene, region: Region) -> anyhow::Result<()> {
-    use strahl::memory::{default_limit, estimate, megabytes};
+    use strahl::job::memory::{default_limit, estimate, megabytes};
     let Some(limit) = args.max_memory.or_else(default_limit) else { return Ok(()) };
     let needs = estimate(scene, region.pixel_count());
     if needs.total() > limit {
@@ -247,7 +247,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         key: checkpoint::key(&scene, region, args.backend.name()),
     };
     // The file's layout, known before rendering so that its blocks can be compressed as the
-    // tiles finish (strahl::io::exr_stream); the header attributes are added after.
+    // tiles finish (strahl::output::exr_stream); the header attributes are added after.
     let ids = ObjectIds::new(&scene);
     let mut options = ExrOptions {
         layout: match args.exr_layout {
@@ -282,7 +282,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     };
 
-    options.attributes = strahl::io::metadata::attributes(
+    options.attributes = strahl::output::metadata::attributes(
         &scene,
         &RenderInfo {
             scene_file: args.scene.display().to_string(),
@@ -292,15 +292,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     );
     let write_start = Instant::now();
     // Both files whole in their temporaries first, then renamed together: a failure writing
-    // either leaves neither (strahl::io::atomic).
+    // either leaves neither (strahl::sys::atomic).
     eprintln!("writing {} ...", args.output.display());
     let blocks_seconds = blocks.thread_seconds();
     let mut staged = vec![blocks.stage(&film, &options, &args.output, threads)?];
     if let Some(png) = &args.png {
         eprintln!("writing {} ...", png.display());
-        staged.push(strahl::io::png::stage(&film, args.exposure, png)?);
+        staged.push(strahl::output::png::stage(&film, args.exposure, png)?);
     }
-    strahl::io::atomic::commit_all(staged)?;
+    strahl::sys::atomic::commit_all(staged)?;
     // The output is whole: the checkpoint has served.
     if checkpointing.path.exists() {
         std::fs::remove_file(&checkpointing.path).with_context(|| {
@@ -361,7 +361,7 @@ struct Output<'a> {
     options: &'a ExrOptions,
 }
 
-/// Where a render keeps its checkpoint and how ([`strahl::checkpoint`]).
+/// Where a render keeps its checkpoint and how ([`strahl::output::checkpoint`]).
 struct Checkpointing {
     path: PathBuf,
     /// Time between two checkpoints (zero: after every tile).
@@ -411,9 +411,9 @@ fn render<A: Accel>(
     let blocks = BlockStream::new(&film, output.options, output.path, &todo_tiles);
 
     // While the tiles are traced, the first SIGINT/SIGTERM only asks to stop (the checkpoint
-    // is saved below); a second one, or any during the writing, exits at once (crate::signals).
-    let stop = strahl::signals::stop_requested();
-    strahl::signals::graceful(true);
+    // is saved below); a second one, or any during the writing, exits at once (crate::sys::signals).
+    let stop = strahl::sys::signals::stop_requested();
+    strahl::sys::signals::graceful(true);
     let finished = Mutex::new(done);
     // When the last save ended and how long it took.
     let last_save = Mutex::new((Instant::now(), Duration::ZERO));
@@ -456,7 +456,7 @@ fn render<A: Accel>(
     let progress = |done| bar.inc(done);
     let job = TileJob { tiles: &todo_tiles, stop: Some(stop), progress: &progress, on_tile: &on_tile };
     let rendered = pool.install(|| integrator::render_tiles(scene, accel, film, &job));
-    strahl::signals::graceful(false);
+    strahl::sys::signals::graceful(false);
     let (film, rays) = rendered.with_context(|| format!("{}: rendering failed", path.display()))?;
     let render_seconds = render_start.elapsed().as_secs_f64();
     bar.finish();
