@@ -5,6 +5,7 @@
 
 pub mod bvh;
 pub mod embree;
+pub mod instance;
 
 use crate::math::{Ray, Vec3};
 
@@ -30,24 +31,27 @@ pub struct Hit {
 }
 
 /// A failure while tracing. Only the Embree backend can fail (an Embree error, or a panic
-/// caught in one of its callbacks); the native backend never does. The integrator also
-/// refuses a camera or scene it cannot render before tracing anything.
+/// caught in one of its callbacks), and it converts its own error into this one; the native
+/// backend never does. Errors that are not tracing errors (a camera or scene the integrator
+/// cannot render) are the integrator's ([`crate::integrator::RenderError`]).
 #[derive(Debug, thiserror::Error)]
 pub enum TraceError {
-    #[error(transparent)]
-    Embree(#[from] crate::accel::embree::Error),
-    /// The camera cannot be built (its message starts with `camera:`).
-    #[error(transparent)]
-    Camera(#[from] crate::camera::CameraError),
-    /// An object of the scene cannot be rendered: `sphere 3: material 7 does not exist ...`.
+    /// The backend's error, shown as its own message (`Embree error RTC_ERROR_… in
+    /// rtcIntersect1: …`); downcast it to the backend's error type to read more.
     #[error("{0}")]
-    InvalidScene(String),
+    Backend(Box<dyn std::error::Error + Send + Sync>),
 }
 
 /// A ray-tracing acceleration structure over a committed, immutable scene.
 pub trait Accel: Sync {
     /// A short name for reports: `"embree"` or `"native"`.
     fn name(&self) -> &'static str;
+
+    /// Makes the calling thread ready to trace; the tile loop calls it in every thread before
+    /// it traces a tile. Both backends switch the thread's SSE unit to flush denormals to
+    /// zero, as Embree asks of every thread that traces, so that a pixel's arithmetic is the
+    /// same whichever backend, thread or pool traced it.
+    fn prepare_thread(&self);
 
     /// The closest hit with `ray.tnear < t < ray.tfar`, if any.
     fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError>;

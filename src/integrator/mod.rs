@@ -91,7 +91,7 @@ use crate::output::ids::ObjectIds;
 use crate::output::passes::{LIGHT_PASSES, Pass};
 use crate::output::region::Region;
 use crate::sampler::{PixelSampler, SampleDims, strata};
-use crate::scene::Scene;
+use crate::scene::{MAX_DEPTH_LIMIT, Scene};
 use crate::surface::SurfacePoint;
 
 /// Rays traced, by kind, for the summary the command prints.
@@ -121,15 +121,24 @@ impl std::ops::AddAssign for RayCounts {
 
 pub use crate::output::region::TILE_SIZE;
 
+/// Why a render failed: the camera or the scene cannot be rendered (found before anything is
+/// traced), or the backend failed while tracing.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The backend failed while tracing.
+    #[error(transparent)]
+    Trace(#[from] TraceError),
+    /// The camera cannot be built (its message starts with `camera:`).
+    #[error(transparent)]
+    Camera(#[from] crate::camera::CameraError),
+    /// An object of the scene cannot be rendered: `sphere 3: material 7 does not exist ...`.
+    #[error("{0}")]
+    InvalidScene(String),
+}
+
 /// A secondary ray whose throughput is below this in every channel is not traced: it could
 /// change the pixel by at most this fraction of the radiance it would find.
 pub const THROUGHPUT_CUTOFF: f32 = 1e-4;
-
-/// The largest `image.max_depth` accepted. Reflection and refraction recurse once per
-/// bounce; this bounds the stack a worker thread needs (well inside rayon's default), and
-/// no image changes visibly beyond it (even between perfect mirrors the `max_depth`-th image
-/// is a speck).
-pub const MAX_DEPTH_LIMIT: u32 = 256;
 
 /// A shadow ray towards a point light at distance `d` ends at `d·SHADOW_TFAR_SCALE`, just short
 /// of the light, so that a surface the light sits on does not shadow it.
@@ -147,7 +156,7 @@ pub fn render<A: Accel>(
     scene: &Scene,
     accel: &A,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Film, RayCounts), TraceError> {
+) -> Result<(Film, RayCounts), RenderError> {
     let region = Region::full(scene.image.width, scene.image.height);
     render_region(scene, accel, region, progress)
 }
@@ -159,7 +168,7 @@ pub fn render_region<A: Accel>(
     accel: &A,
     region: Region,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Film, RayCounts), TraceError> {
+) -> Result<(Film, RayCounts), RenderError> {
     let film = Film::for_region(scene.image.width, scene.image.height, region, &scene.output);
     let tiles = region.tiles();
     let on_tile = |_: usize, _: &Mutex<Film>| {};
@@ -191,7 +200,7 @@ pub fn render_tiles<A: Accel>(
     accel: &A,
     film: Film,
     job: &TileJob,
-) -> Result<(Film, RayCounts), TraceError> {
+) -> Result<(Film, RayCounts), RenderError> {
     check_scene(scene)?;
     let img = &scene.image;
     let camera = Camera::new(&scene.camera, img.width, img.height)?;
@@ -199,7 +208,7 @@ pub fn render_tiles<A: Accel>(
     let ids = ObjectIds::new(scene);
     let inside = film.region();
     if let Some(t) = job.tiles.iter().find(|t| t.intersection(&inside) != Some(**t)) {
-        return Err(TraceError::InvalidScene(format!("tile {t} lies outside the film's region {inside}")));
+        return Err(RenderError::InvalidScene(format!("tile {t} lies outside the film's region {inside}")));
     }
     let film = Mutex::new(film);
     let counts = job
@@ -219,7 +228,7 @@ pub fn render_tiles<A: Accel>(
             }
             (job.progress)(tile.pixel_count());
             (job.on_tile)(k, &film);
-            Ok::<_, TraceError>(counts)
+            Ok::<_, RenderError>(counts)
         })
         .try_reduce(RayCounts::default, |mut a, b| {
             a += b;
@@ -230,8 +239,8 @@ pub fn render_tiles<A: Accel>(
 
 /// Checks everything the integrator indexes or divides by, so that rendering cannot panic or
 /// produce NaN from bad input. Errors name the object: `sphere 3: material 7 does not exist`.
-pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
-    let bad = |object: String, problem: String| Err(TraceError::InvalidScene(format!("{object}: {problem}")));
+pub fn check_scene(scene: &Scene) -> Result<(), RenderError> {
+    let bad = |object: String, problem: String| Err(RenderError::InvalidScene(format!("{object}: {problem}")));
     if scene.image.spp == 0 {
         return bad("image".into(), "spp 0 must be at least 1".into());
     }
@@ -482,10 +491,10 @@ impl<'a, A: Accel> Whitted<'a, A> {
         tile: &Region,
         ids: &ObjectIds,
     ) -> Result<(Vec<(u32, u32)>, Vec<PixelAccumulator>, RayCounts), TraceError> {
-        // Embree asks for flush-to-zero in every thread that traces; setting it here (two
-        // instructions) also makes shading arithmetic identical on every worker, whatever
-        // the pool's start handler did.
-        crate::accel::embree::enable_flush_to_zero();
+        // The backend's float mode (flush-to-zero, which Embree asks of every thread that
+        // traces); setting it here (two instructions) also makes shading arithmetic identical
+        // on every worker, whatever the pool's start handler did.
+        self.accel.prepare_thread();
         let width = self.scene.image.width as u64;
         let passes = self.scene.output.passes;
         let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);

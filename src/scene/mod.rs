@@ -114,6 +114,12 @@ impl Default for ImageSpec {
     }
 }
 
+/// The largest `image.max_depth` accepted. Reflection and refraction recurse once per
+/// bounce; this bounds the stack a worker thread needs (well inside rayon's default), and
+/// no image changes visibly beyond it (even between perfect mirrors the `max_depth`-th image
+/// is a speck).
+pub const MAX_DEPTH_LIMIT: u32 = 256;
+
 /// What kind of object a hit's `geom_id` names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GeomKind {

@@ -27,6 +27,7 @@ use crate::accel::bvh::{self, Bvh};
 use crate::accel::embree::raw_bench::{self, RawHit, RawRays};
 use crate::accel::embree::{self, BuildOptions, Device, DeviceOptions, EmbreeAccel};
 use crate::accel::{Accel, Hit, TraceError};
+use crate::integrator::RenderError;
 use crate::math::Ray;
 use crate::scene::Scene;
 use crate::verify::workload::{self, RayKind};
@@ -155,6 +156,8 @@ pub enum Error {
     Native(#[from] bvh::Error),
     #[error(transparent)]
     Trace(#[from] TraceError),
+    #[error(transparent)]
+    Rays(#[from] RenderError),
     #[error("cannot start {threads} threads: {message}")]
     Threads { threads: usize, message: String },
 }

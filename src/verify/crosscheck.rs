@@ -53,6 +53,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Hit, TraceError};
+use crate::integrator::RenderError;
 use crate::math::Ray;
 use crate::scene::{GeomKind, Scene};
 use crate::verify::workload::{self, RayKind};
@@ -262,9 +263,9 @@ pub fn run<A: Accel, B: Accel>(
     kind: RayKind,
     n: usize,
     seed: u64,
-) -> Result<Report, TraceError> {
+) -> Result<Report, RenderError> {
     let rays = workload::rays(scene, kind, n, seed, a)?;
-    compare(scene, a, b, &rays)
+    Ok(compare(scene, a, b, &rays)?)
 }
 
 fn quantiles(v: &mut [f64]) -> Quantiles {

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, TraceError};
 use crate::camera::Camera;
+use crate::integrator::RenderError;
 use crate::integrator::SHADOW_TFAR_SCALE;
 use crate::light::Light;
 use crate::math::{Ray, Vec3, offset_ray_origin};
@@ -105,7 +106,7 @@ pub fn primary_side(n: usize) -> u32 {
 }
 
 /// Primary rays of `scene`'s camera (see [`RayKind::Primary`]), about `n` of them.
-pub fn primary(scene: &Scene, n: usize) -> Result<Vec<Ray>, TraceError> {
+pub fn primary(scene: &Scene, n: usize) -> Result<Vec<Ray>, RenderError> {
     let side = primary_side(n);
     Ok(camera_rays(&Camera::new(&primary_camera(scene), side, side)?))
 }
@@ -114,7 +115,7 @@ pub fn primary(scene: &Scene, n: usize) -> Result<Vec<Ray>, TraceError> {
 /// `tracer` finds them (pass the reference backend; every backend then traces the same rays).
 /// The primary image grows until it has `n` hits; a scene nothing can be hit in yields fewer
 /// (possibly no) secondary rays.
-pub fn rays<A: Accel>(scene: &Scene, kind: RayKind, n: usize, seed: u64, tracer: &A) -> Result<Vec<Ray>, TraceError> {
+pub fn rays<A: Accel>(scene: &Scene, kind: RayKind, n: usize, seed: u64, tracer: &A) -> Result<Vec<Ray>, RenderError> {
     match kind {
         RayKind::Primary => primary(scene, n),
         RayKind::Random => Ok(procedural::random_rays(n, scene.bounds(), seed)),
@@ -170,7 +171,7 @@ fn from_primary_hits<A: Accel>(
     n: usize,
     tracer: &A,
     make: impl Fn(&Ray, f32, Vec3) -> Ray + Sync,
-) -> Result<Vec<Ray>, TraceError> {
+) -> Result<Vec<Ray>, RenderError> {
     let mut want = n;
     let mut reflected = Vec::new();
     for _ in 0..4 {

@@ -16,10 +16,10 @@
 use glam::Affine3A;
 
 use super::{Bvh, Error};
+use crate::accel::instance::WorldNormals;
 use crate::accel::{Accel, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Scene;
-use crate::scene::instance::WorldNormals;
 
 /// Most instances in a top-level leaf.
 const TOP_LEAF: usize = 2;

@@ -848,6 +848,13 @@ impl Accel for Bvh {
         "native"
     }
 
+    /// The float mode of Embree's threads (flush-to-zero, denormals-are-zero; the Embree
+    /// wrapper keeps the only code that sets it), so that shading gives the same bits under
+    /// both backends.
+    fn prepare_thread(&self) {
+        crate::accel::embree::enable_flush_to_zero();
+    }
+
     #[inline(always)]
     fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError> {
         if !traceable(ray) {

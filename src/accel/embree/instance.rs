@@ -5,7 +5,7 @@
 //! that id as its `geom_id` (the scene's numbering, [`crate::scene::Scene::instance_geom_id`])
 //! and the prototype's triangle as its `prim_id`. Its `Ng` comes in the prototype's space;
 //! [`super::EmbreeAccel`] turns it into world space
-//! ([`crate::scene::instance::WorldNormals`]).
+//! ([`crate::accel::instance::WorldNormals`]).
 //!
 //! The API used here (`rtcNewGeometry(INSTANCE)`, `rtcSetGeometryInstancedScene`,
 //! `rtcSetGeometryTransform` with `RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR`) is the same in Embree 3

@@ -46,6 +46,12 @@ pub enum Error {
     CallbackPanic(String),
 }
 
+impl From<Error> for TraceError {
+    fn from(e: Error) -> Self {
+        TraceError::Backend(Box::new(e))
+    }
+}
+
 impl Error {
     /// Embree's `RTCError` code, for errors that Embree reported.
     pub fn code(&self) -> Option<sys::RTCError> {
@@ -68,7 +74,7 @@ pub struct EmbreeAccel {
     planes: Vec<Plane>,
     planes_geom_id: u32,
     /// Instance hits' normals into world space (Embree reports them in object space).
-    normals: crate::scene::instance::WorldNormals,
+    normals: crate::accel::instance::WorldNormals,
 }
 
 impl EmbreeAccel {
@@ -102,7 +108,7 @@ impl EmbreeAccel {
             scene: builder.commit()?,
             planes: scene.planes.clone(),
             planes_geom_id: scene.planes_geom_id(),
-            normals: crate::scene::instance::WorldNormals::of_scene(scene),
+            normals: crate::accel::instance::WorldNormals::of_scene(scene),
         })
     }
 
@@ -126,6 +132,10 @@ impl EmbreeAccel {
 impl Accel for EmbreeAccel {
     fn name(&self) -> &'static str {
         "embree"
+    }
+
+    fn prepare_thread(&self) {
+        enable_flush_to_zero();
     }
 
     #[inline(always)]

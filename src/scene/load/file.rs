@@ -151,8 +151,8 @@ pub fn image_problem(image: &ImageSpec) -> Option<(&'static str, String)> {
         Some(("spp", "spp (samples per pixel) must be at least 1".into()))
     } else if image.spp > MAX_SPP {
         Some(("spp", format!("spp {} is more than the {MAX_SPP} samples per pixel strahl takes", image.spp)))
-    } else if image.max_depth > crate::integrator::MAX_DEPTH_LIMIT {
-        let limit = crate::integrator::MAX_DEPTH_LIMIT;
+    } else if image.max_depth > crate::scene::MAX_DEPTH_LIMIT {
+        let limit = crate::scene::MAX_DEPTH_LIMIT;
         Some(("max_depth", format!("max_depth {} is more than the {limit} bounces strahl follows", image.max_depth)))
     } else if !(1..=MAX_LIGHT_SAMPLES).contains(&image.mesh_light_samples) {
         let n = image.mesh_light_samples;
