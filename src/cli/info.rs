@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use strahl::light::mesh::MeshEmitter;
+use strahl::integrator::lights::mesh_emitters;
 use strahl::scene::{Loaded, ObjectSummary, Scene};
 
 /// Arguments of `strahl info`.
@@ -88,9 +88,9 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
 }
 
 /// `lights: 3 (1 with an area, 1 emitting mesh)`: point and directional lights, area lights,
-/// and the meshes whose emission lights the scene ([`MeshEmitter`]).
+/// and the meshes whose emission lights the scene ([`mesh_emitters`]).
 fn lights_line(scene: &Scene) -> String {
-    let (area, meshes) = (scene.area_lights.len(), MeshEmitter::of_scene(scene).len());
+    let (area, meshes) = (scene.area_lights.len(), mesh_emitters(scene).len());
     let total = scene.lights.len() + area + meshes;
     let mut parts = Vec::new();
     if area > 0 {

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use crate::accel::{Accel, TraceError};
 use crate::camera::Camera;
 use crate::integrator::RenderError;
-use crate::integrator::SHADOW_TFAR_SCALE;
+use crate::integrator::lights::SHADOW_TFAR_SCALE;
 use crate::light::Light;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::scene::{CameraSpec, Scene, procedural};
