@@ -58,7 +58,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         if config.runs == 1 { "" } else { "s" },
         load_average()
     );
-    println!("{}", super::embree_device(1)?.describe());
+    println!("{}", strahl::job::embree_device(1)?.describe());
     let report = bench::run(&scene, &config).with_context(|| format!("{}: benchmark failed", args.scene.display()))?;
     println!("{report}");
     println!("load average after: {}", load_average());

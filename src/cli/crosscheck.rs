@@ -43,9 +43,9 @@ pub struct CrosscheckArgs {
 pub fn run(args: CrosscheckArgs) -> anyhow::Result<()> {
     let scene = super::load_scene(&args.scene)?.scene;
     super::check_bounded(&args.scene, &scene)?;
-    let threads = super::thread_count(args.threads.map(|t| t as usize));
-    let pool = super::thread_pool(threads)?;
-    let device = super::embree_device(threads)?;
+    let threads = strahl::job::thread_count(args.threads.map(|t| t as usize));
+    let pool = strahl::job::thread_pool(threads)?;
+    let device = strahl::job::embree_device(threads)?;
     let shown = args.scene.display();
 
     let start = Instant::now();

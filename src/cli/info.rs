@@ -33,9 +33,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let mut loaded = super::load_scene(&args.scene)?;
     let load_seconds = start.elapsed().as_secs_f64();
     // The size and passes a render would be given, for the memory estimate.
-    super::override_image(&args.scene, &mut loaded.scene.image, [args.width, args.height, None, None])?;
+    strahl::job::override_image(&args.scene, &mut loaded.scene.image, [args.width, args.height, None, None])?;
     if let Some(passes) = &args.passes {
-        loaded.scene.output.passes = super::parse_passes(passes)?;
+        loaded.scene.output.passes = strahl::job::parse_passes(passes)?;
     }
     print!("{}", describe(&args.scene.display().to_string(), &loaded, load_seconds));
     Ok(())

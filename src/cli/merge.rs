@@ -33,7 +33,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             bail!("{}: is both a part and the output; merge never overwrites a part", out.display());
         }
     }
-    let threads = super::thread_count(args.threads.map(|t| t as usize));
+    let threads = strahl::job::thread_count(args.threads.map(|t| t as usize));
     let bytes = strahl::output::merge::merge(&args.parts, threads)?;
     write_atomically(out, &bytes)?;
     println!("merged {} parts into {} ({:.1} MB)", args.parts.len(), out.display(), bytes.len() as f64 / 1e6);

@@ -1,5 +1,5 @@
 //! The shadow rays of a round of camera-ray hits, traced light by light: for each
-//! [`LightSlot`] (a light, or one sample of an area light or emissive mesh), the shadow rays
+//! [`LightSlot`](super::lights::LightSlot) (a light, or one sample of an area light or emissive mesh), the shadow rays
 //! of every pixel whose hit casts one towards it go to [`Accel::occluded_batch`] together,
 //! which Embree traces as 8-wide `rtcOccluded8` packets: neighbouring pixels' rays towards one
 //! light point are as coherent as their camera rays. Shared by every integrator that gathers

@@ -107,7 +107,7 @@ impl<A: Accel> Integrator for Whitted<'_, A> {
 
     /// Emission, then the direct light with the shadow rays towards each light (sample) traced
     /// as one batch ([`ShadowBatch`]), then reflection and refraction pixel by pixel; each
-    /// pixel's terms are added in the order [`Whitted::shade_split`] adds them, so the sums are
+    /// pixel's terms are added in the order [`Whitted::shade`] adds them, so the sums are
     /// bit-identical to shading its ray alone.
     fn shade_round(
         &self,
