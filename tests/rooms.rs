@@ -1,6 +1,7 @@
 //! The import rules between strahl's rooms (docs/architecture.md), read from the source: every
-//! path `crate::room::…` (and `strahl::room::…` in the command, `super::…` resolved) outside
-//! comments and test modules is an import of that room.
+//! path `crate::room::…` (`strahl::room::…` in the command; `super::…`, `self::…` and a
+//! declared module's `child::…` resolved) outside comments and test modules is an import of
+//! that room.
 //!
 //! The rooms are the top-level modules of `src/` and the command (`main.rs`, `cli/`); the two
 //! backends `accel::embree` and `accel::bvh` are rooms of their own beneath the interface
@@ -57,8 +58,9 @@ fn room_of(path: &[String]) -> String {
 }
 
 /// The module paths a line names: `crate::a::b` (`strahl::a::b` in the command),
-/// `crate::{a, b::c}`, and `super::…` resolved from `module`.
-fn paths_in(line: &str, root: &str, module: &[String]) -> Vec<Vec<String>> {
+/// `crate::{a, b::c}`, and `super::…`, `self::…` and `child::…` (a module the file declares)
+/// resolved from `module`.
+fn paths_in(line: &str, root: &str, module: &[String], children: &[String]) -> Vec<Vec<String>> {
     let ident = |s: &str| s.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect::<String>();
     let segments = |mut rest: &str, mut path: Vec<String>| {
         loop {
@@ -103,8 +105,28 @@ fn paths_in(line: &str, root: &str, module: &[String]) -> Vec<Vec<String>> {
         }
         found.push(segments(rest, base));
     }
+    for name in children.iter().map(String::as_str).chain(["self"]) {
+        for (i, _) in line.match_indices(&format!("{name}::")) {
+            if i > 0 && (bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_' || bytes[i - 1] == b':') {
+                continue;
+            }
+            let rest = if name == "self" { &line[i + 6..] } else { &line[i..] };
+            found.push(segments(rest, module.to_vec()));
+        }
+    }
     found.retain(|p| !p.is_empty());
     found
+}
+
+/// The modules a file declares (`mod name;`, `pub mod name;`).
+fn children(text: &str) -> Vec<String> {
+    text.lines()
+        .filter_map(|l| {
+            let l = l.trim_start();
+            let l = l.strip_prefix("pub ").or_else(|| l.strip_prefix("pub(crate) ")).unwrap_or(l);
+            l.strip_prefix("mod ")?.strip_suffix(';').map(str::to_string)
+        })
+        .collect()
 }
 
 /// Every import between rooms in `src/`, by importing room.
@@ -121,6 +143,7 @@ fn imports() -> BTreeMap<String, Vec<Import>> {
         let root = if command { "strahl" } else { "crate" };
         let from = room_of(&module);
         let text = std::fs::read_to_string(&file).unwrap();
+        let children = children(&text);
         for (n, line) in text.lines().enumerate() {
             let code = line.trim_start();
             // A test module ends the file (the project's convention); comments import nothing.
@@ -131,7 +154,7 @@ fn imports() -> BTreeMap<String, Vec<Import>> {
                 continue;
             }
             let code = if code.contains('"') { code } else { code.split("//").next().unwrap_or("") };
-            for path in paths_in(code, root, &module) {
+            for path in paths_in(code, root, &module, &children) {
                 let to = room_of(&path);
                 // Paths into the command's own modules, and into std or crates, are not rooms.
                 let is_room = src.join(&path[0]).is_dir() || src.join(format!("{}.rs", path[0])).is_file();
