@@ -322,17 +322,7 @@ impl RenderJob {
         let (scene, ckpt) = (&self.scene, out.checkpointing);
         let tiles = self.region.tiles();
         let shown = ckpt.path.display();
-        let mut done = Vec::new();
-        if ckpt.path.exists() {
-            if ckpt.resume {
-                done = checkpoint::read_into(&ckpt.path, &ckpt.key, &tiles, &mut film)?;
-                (observer.note)(&format!("resuming from {shown}: {} of {} tiles done", done.len(), tiles.len()));
-            } else {
-                (observer.note)(&format!(
-                    "warning: {shown} exists; rendering from the start and replacing it (--resume continues it)"
-                ));
-            }
-        }
+        let done = ckpt.restore(&tiles, &mut film, observer)?;
         // A mask, not `done.contains`: a 16384² frame has a million tiles.
         let mut is_done = vec![false; tiles.len()];
         for &k in &done {
@@ -595,6 +585,27 @@ struct Checkpointing {
     every: Duration,
     resume: bool,
     key: String,
+}
+
+impl Checkpointing {
+    /// The tiles (indices into `tiles`) the checkpoint holds, copied into `film`, when there is
+    /// one and the render resumes; none otherwise (a checkpoint that is not resumed is
+    /// replaced, with a warning).
+    fn restore(&self, tiles: &[Region], film: &mut Film, observer: &Observer) -> anyhow::Result<Vec<usize>> {
+        let shown = self.path.display();
+        if !self.path.exists() {
+            return Ok(Vec::new());
+        }
+        if !self.resume {
+            (observer.note)(&format!(
+                "warning: {shown} exists; rendering from the start and replacing it (--resume continues it)"
+            ));
+            return Ok(Vec::new());
+        }
+        let done = checkpoint::read_into(&self.path, &self.key, tiles, film)?;
+        (observer.note)(&format!("resuming from {shown}: {} of {} tiles done", done.len(), tiles.len()));
+        Ok(done)
+    }
 }
 
 /// A test hook: `STRAHL_TEST_TILE_DELAY_MS=N` makes every finished tile wait N ms, so that
