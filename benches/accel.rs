@@ -11,10 +11,10 @@ mod scenes;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use strahl::bench::{pool, trace};
-use strahl::bvh::Bvh;
-use strahl::embree::{BuildOptions, Device, DeviceOptions, EmbreeAccel};
-use strahl::workload::{self, RayKind};
+use strahl::accel::bvh::Bvh;
+use strahl::accel::embree::{BuildOptions, Device, DeviceOptions, EmbreeAccel};
+use strahl::verify::bench::{pool, trace};
+use strahl::verify::workload::{self, RayKind};
 
 /// Rays per iteration: enough to average over the image, few enough for quick samples.
 const RAYS: usize = 1 << 16;

@@ -7,7 +7,7 @@ mod scenes;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use scenes::data_dir;
-use strahl::io::{MeshOptions, load_mesh};
+use strahl::scene::load::{MeshOptions, load_mesh};
 
 fn load(c: &mut Criterion) {
     let Some(root) = data_dir() else {
@@ -16,7 +16,7 @@ fn load(c: &mut Criterion) {
     };
     let dragon_gz = root.join("stanford/dragon_vrip.ply.gz");
     let plain = std::env::temp_dir().join(format!("strahl-bench-dragon-{}.ply", std::process::id()));
-    std::fs::write(&plain, strahl::io::mesh::read_file(&dragon_gz).expect("the dragon")).unwrap();
+    std::fs::write(&plain, strahl::scene::load::mesh::read_file(&dragon_gz).expect("the dragon")).unwrap();
     let files = [
         ("dragon_vrip.ply.gz", dragon_gz),
         ("dragon_vrip.ply (uncompressed)", plain.clone()),

@@ -6,9 +6,9 @@
 use std::io::Cursor;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use strahl::embree::{BuildOptions, Device, EmbreeAccel};
+use strahl::accel::embree::{BuildOptions, Device, EmbreeAccel};
 use strahl::integrator;
-use strahl::io::exr::{ExrOptions, encode_to};
+use strahl::output::exr::{ExrOptions, encode_to};
 
 fn output(c: &mut Criterion) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/whitted.toml");
@@ -34,7 +34,9 @@ fn output(c: &mut Criterion) {
         });
     }
     group.throughput(Throughput::Elements(film.rgba.len() as u64));
-    group.bench_function("png_1920x1080", |b| b.iter(|| strahl::io::png::encode(&film, 0.0).expect("encodes").len()));
+    group.bench_function("png_1920x1080", |b| {
+        b.iter(|| strahl::output::png::encode(&film, 0.0).expect("encodes").len())
+    });
     group.finish();
 }
 

@@ -6,7 +6,7 @@
 //! and a directional light, at 320×240 and 1 and 4 samples per pixel, on 1 and 2 threads.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use strahl::embree::{BuildOptions, Device, EmbreeAccel};
+use strahl::accel::embree::{BuildOptions, Device, EmbreeAccel};
 use strahl::integrator;
 use strahl::scene::procedural::whitted_showcase;
 
@@ -20,7 +20,7 @@ fn render(c: &mut Criterion) {
         for threads in [1usize, 2] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
-                .start_handler(|_| strahl::embree::enable_flush_to_zero())
+                .start_handler(|_| strahl::accel::embree::enable_flush_to_zero())
                 .build()
                 .expect("a thread pool");
             // The ray count is deterministic: one render gives it for every iteration.

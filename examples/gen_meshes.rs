@@ -9,7 +9,7 @@ fn main() -> std::io::Result<()> {
     for (name, mesh, comment) in strahl::scene::procedural::shipped_meshes() {
         let path = dir.join(name);
         let mut out = Vec::new();
-        strahl::io::ply::write_ascii(&mesh, &mut out, comment)?;
+        strahl::scene::load::ply::write_ascii(&mesh, &mut out, comment)?;
         std::fs::write(&path, out)?;
         println!("wrote {} ({} triangles, {} vertices)", path.display(), mesh.indices.len(), mesh.positions.len());
     }

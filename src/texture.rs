@@ -100,12 +100,12 @@ impl Image {
     }
 
     /// Reads and decodes the image file at `path` (a regular file of at most
-    /// [`crate::io::read::max_mesh_bytes`]).
+    /// [`crate::sys::read::max_mesh_bytes`]).
     pub fn open(path: &Path) -> Result<Image, String> {
         let cannot = |e: &dyn std::fmt::Display| format!("{}: cannot read the texture: {e}", path.display());
-        let limit = crate::io::read::max_mesh_bytes().map_err(|e| cannot(&e))?;
+        let limit = crate::sys::read::max_mesh_bytes().map_err(|e| cannot(&e))?;
         let bytes =
-            crate::io::read::read_regular(path, limit, crate::io::read::MESH_LIMIT_HINT).map_err(|e| cannot(&e))?;
+            crate::sys::read::read_regular(path, limit, crate::sys::read::MESH_LIMIT_HINT).map_err(|e| cannot(&e))?;
         Image::decode(&bytes, &path.display().to_string())
     }
 
@@ -165,7 +165,7 @@ pub fn open_shared(path: &Path) -> Result<Arc<Image>, String> {
     let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     cache.retain(|_, image| image.strong_count() > 0);
     if let Some(image) = cache.get(&key).and_then(Weak::upgrade) {
-        crate::io::read::note_input(path);
+        crate::sys::read::note_input(path);
         return Ok(image);
     }
     let image = Arc::new(Image::open(path)?);

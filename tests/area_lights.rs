@@ -12,10 +12,10 @@ mod common;
 use std::f64::consts::PI;
 use std::path::Path;
 
-use strahl::bvh::Bvh;
+use strahl::accel::bvh::Bvh;
 use strahl::camera::Camera;
-use strahl::film::Film;
 use strahl::integrator;
+use strahl::output::film::Film;
 use strahl::scene::{Scene, from_toml_str};
 
 fn scene(text: &str) -> Scene {

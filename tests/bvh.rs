@@ -2,8 +2,8 @@
 //! scenes of triangles, spheres and planes; a tree that does not depend on the thread count;
 //! analytic hits through the `Accel` interface; bad input refused.
 
+use strahl::accel::bvh::{BuildOptions, Bvh, Kernel};
 use strahl::accel::{Accel, Hit};
-use strahl::bvh::{BuildOptions, Bvh, Kernel};
 use strahl::geometry::triangle::{self, RayFrame};
 use strahl::geometry::{Plane, Sphere, plane, sphere};
 use strahl::math::{Aabb, Ray, Vec3};

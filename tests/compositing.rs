@@ -205,7 +205,7 @@ fn blender_lists_the_passes_by_name() {
     render(&scene_path("whitted.toml"), &out, 64, 48, &["--passes", "all", "--spp", "1"]);
     // The object index of the floor: 1 + its place among the scene's objects.
     let scene = strahl::scene::load(scene_path("whitted.toml")).unwrap().scene;
-    let ids = strahl::ids::ObjectIds::new(&scene);
+    let ids = strahl::output::ids::ObjectIds::new(&scene);
     let floor = 1 + ids.object_names.iter().position(|n| n == "floor").unwrap();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/blender_check.py");
     let o = Command::new("blender")
@@ -294,9 +294,10 @@ fn the_output_table_chooses_passes_alpha_and_levels() {
     let out = ok.scene.output;
     assert!(out.transparent && out.crypto_levels == 4);
     assert!(
-        out.passes.contains(strahl::passes::Pass::CryptoObject) && out.passes.contains(strahl::passes::Pass::Depth)
+        out.passes.contains(strahl::output::passes::Pass::CryptoObject)
+            && out.passes.contains(strahl::output::passes::Pass::Depth)
     );
-    assert!(!out.passes.contains(strahl::passes::Pass::Position));
+    assert!(!out.passes.contains(strahl::output::passes::Pass::Position));
     let e = strahl::scene::from_toml_str(&format!("{base}[output]\npasses = [\"beauty\"]\n"), path).unwrap_err();
     assert!(
         e.to_string().starts_with("s.toml:6:10: output: unknown pass 'beauty' (known: default, all, combined"),

@@ -8,19 +8,19 @@
 mod common;
 
 use common::{TempDir, data_dir, fails, strahl, text};
-use strahl::bvh::Bvh;
-use strahl::crosscheck::{self, Report};
-use strahl::embree::{BuildOptions, Device, DeviceOptions, EmbreeAccel};
+use strahl::accel::bvh::Bvh;
+use strahl::accel::embree::{BuildOptions, Device, DeviceOptions, EmbreeAccel};
 use strahl::geometry::Plane;
 use strahl::math::{Aabb, Vec3};
 use strahl::scene::{Scene, procedural};
-use strahl::workload::RayKind;
+use strahl::verify::crosscheck::{self, Report};
+use strahl::verify::workload::RayKind;
 
 const RAYS: usize = 1_000_000;
 
 /// Two workers (as CI has) that flush denormals to zero, as Embree asks.
 fn pool() -> rayon::ThreadPool {
-    strahl::bench::pool(2).unwrap()
+    strahl::verify::bench::pool(2).unwrap()
 }
 
 /// The shared test mesh `name` as a scene of its own; `None` when the data folder is missing.

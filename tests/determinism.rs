@@ -14,7 +14,7 @@ use strahl::scene::procedural::whitted_showcase;
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
-        .start_handler(|_| strahl::embree::enable_flush_to_zero())
+        .start_handler(|_| strahl::accel::embree::enable_flush_to_zero())
         .build()
         .unwrap()
 }
@@ -46,7 +46,7 @@ fn the_native_backend_renders_the_same_bytes_on_one_and_two_threads() {
     let scene = whitted_showcase(53, 37, 4);
     let render = |threads| {
         pool(threads).install(|| {
-            let bvh = strahl::bvh::Bvh::build(&scene).unwrap();
+            let bvh = strahl::accel::bvh::Bvh::build(&scene).unwrap();
             integrator::render(&scene, &bvh, &|_| {}).unwrap()
         })
     };
@@ -139,7 +139,7 @@ fn the_cornell_box_renders_as_its_camera_rays_shaded_one_by_one() {
     // camera rays one at a time gives: the same light samples, sums in the same order, the
     // same depth.
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
-    let mut scene = strahl::scene::file::load(&path).unwrap_or_else(|e| panic!("{e}")).scene;
+    let mut scene = strahl::scene::load::file::load(&path).unwrap_or_else(|e| panic!("{e}")).scene;
     let (w, h, spp) = (40u32, 30u32, 2u32);
     (scene.image.width, scene.image.height, scene.image.spp) = (w, h, spp);
     assert!(!scene.area_lights.is_empty());

@@ -1,8 +1,8 @@
 //! The Embree layer: analytic hits through Embree's triangles and strahl's user-geometry
 //! spheres, packet vs single-ray vs multi-threaded agreement, errors, bad input, panics.
 
+use strahl::accel::embree::{BuildOptions, Device, EmbreeAccel, Error, SceneBuilder, sys};
 use strahl::accel::{Accel, Hit};
-use strahl::embree::{BuildOptions, Device, EmbreeAccel, Error, SceneBuilder, sys};
 use strahl::geometry::{Plane, Sphere};
 use strahl::math::{Aabb, Ray, Vec3};
 use strahl::scene::{Mesh, Scene, procedural};
@@ -21,7 +21,7 @@ fn near(a: f32, b: f32) -> bool {
 }
 
 /// One sphere of radius 2 around (1, 2, 3), nothing else.
-fn sphere_scene() -> strahl::embree::Scene {
+fn sphere_scene() -> strahl::accel::embree::Scene {
     let mut b = SceneBuilder::new(&device(), BuildOptions::default()).unwrap();
     let id = b.add_spheres("ball", &[Sphere { center: Vec3::new(1.0, 2.0, 3.0), radius: 2.0, material: 0 }]).unwrap();
     assert_eq!(id, 0);
@@ -97,7 +97,7 @@ fn quad() -> (Vec<Vec3>, Vec<[u32; 3]>) {
     (p, vec![[0, 1, 2], [3, 2, 1]])
 }
 
-fn quad_scene() -> strahl::embree::Scene {
+fn quad_scene() -> strahl::accel::embree::Scene {
     let (p, i) = quad();
     let mut b = SceneBuilder::new(&device(), BuildOptions::default()).unwrap();
     b.add_triangle_mesh("empty", &[], &[]).unwrap(); // takes id 0, adds nothing
@@ -212,7 +212,7 @@ fn single_rays_packets_and_threads_agree_on_100k_rays() {
     // Two threads at once, each tracing every other chunk, give the same answers.
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
-        .start_handler(|_| strahl::embree::enable_flush_to_zero())
+        .start_handler(|_| strahl::accel::embree::enable_flush_to_zero())
         .build()
         .unwrap();
     let threaded: Vec<Option<Hit>> = pool.install(|| {
@@ -339,12 +339,12 @@ fn a_panic_in_a_callback_becomes_an_error_not_an_unwind() {
 #[test]
 fn scenes_are_send_and_sync_and_denormals_flush() {
     fn send_sync<T: Send + Sync>() {}
-    send_sync::<strahl::embree::Scene>();
+    send_sync::<strahl::accel::embree::Scene>();
     send_sync::<EmbreeAccel>();
     send_sync::<Device>();
     std::thread::spawn(|| {
-        strahl::embree::enable_flush_to_zero();
-        assert!(strahl::embree::flush_to_zero_enabled());
+        strahl::accel::embree::enable_flush_to_zero();
+        assert!(strahl::accel::embree::flush_to_zero_enabled());
         let tiny = std::hint::black_box(f32::MIN_POSITIVE);
         assert_eq!(std::hint::black_box(tiny * 0.5), 0.0, "denormal result not flushed");
     })

@@ -5,7 +5,7 @@
 
 use std::process::Command;
 
-use strahl::embree::Device;
+use strahl::accel::embree::Device;
 
 #[test]
 fn the_linked_library_is_the_expected_major_version() {
@@ -23,7 +23,7 @@ fn the_linked_library_is_the_expected_major_version() {
                 device.version_string()
             );
             // The bindings too: Embree >= 4.3 built with instance arrays has a 96-byte RTCRayHit.
-            let ray_hit = std::mem::size_of::<strahl::embree::sys::RTCRayHit>();
+            let ray_hit = std::mem::size_of::<strahl::accel::embree::sys::RTCRayHit>();
             if expected == 4 && library >= 40300 {
                 assert_eq!(ray_hit, 96, "RTCRayHit of Embree {} headers", device.version_string());
             }

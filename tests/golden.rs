@@ -18,10 +18,10 @@ mod common;
 
 use std::path::Path;
 
-use strahl::embree::Device;
-use strahl::film::Film;
+use strahl::accel::embree::Device;
 use strahl::integrator;
-use strahl::scene::file;
+use strahl::output::film::Film;
+use strahl::scene::load::file;
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
@@ -91,7 +91,7 @@ fn native_bvh_images_are_bit_identical_to_the_recorded_ones() {
     let mut wrong = Vec::new();
     for &(name, golden, _) in GOLDEN {
         let scene = scene(name);
-        let bvh = strahl::bvh::Bvh::build(&scene).unwrap();
+        let bvh = strahl::accel::bvh::Bvh::build(&scene).unwrap();
         let (film, _) = integrator::render(&scene, &bvh, &|_| {}).unwrap();
         let hash = film_hash(&film);
         println!("{name}: native {hash:#018x}");

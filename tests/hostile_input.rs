@@ -417,7 +417,7 @@ fn a_scene_over_the_size_limit_is_refused_before_it_is_parsed() {
 
 #[test]
 fn non_planar_and_self_crossing_polygons_load_with_one_warning() {
-    use strahl::io::{MeshOptions, load_mesh};
+    use strahl::scene::load::{MeshOptions, load_mesh};
     let dir = TempDir::new("polygons");
     // A unit cube of six planar quads (12 triangles), then at line 23 a non-planar quad whose
     // projection onto the zx plane folds over itself (its Newell normal is (-4, -9, -6)), at
@@ -463,7 +463,7 @@ fn non_planar_and_self_crossing_polygons_load_with_one_warning() {
 
 #[test]
 fn a_million_corner_polygon_loads_as_a_fan() {
-    use strahl::io::{MeshOptions, load_mesh};
+    use strahl::scene::load::{MeshOptions, load_mesh};
     let dir = TempDir::new("star");
     // A star of 1,000,000 corners (alternating radii 1 and 0.5): beyond the ear-clipping bound,
     // so a fan of n − 2 triangles (ear clipping it did not finish in 60 s).

@@ -8,18 +8,18 @@ mod common;
 
 use common::{TempDir, render};
 use glam::DVec3;
-use strahl::bvh::Bvh;
-use strahl::crosscheck;
-use strahl::film::Film;
+use strahl::accel::bvh::Bvh;
 use strahl::geometry::Plane;
 use strahl::integrator;
 use strahl::light::Light;
 use strahl::material::Material;
 use strahl::math::Vec3;
+use strahl::output::film::Film;
 use strahl::scene::instance::flatten;
 use strahl::scene::transform::Transform;
 use strahl::scene::{CameraSpec, Instance, Scene, from_toml_str, procedural};
-use strahl::workload::RayKind;
+use strahl::verify::crosscheck;
+use strahl::verify::workload::RayKind;
 
 /// Five instances of a smooth blob (vertex normals) over a floor, a point light and a sun;
 /// one instance is a mirror (material override), so reflected rays cross instances too.
@@ -118,8 +118,8 @@ fn instances_render_like_the_flattened_scene_on_both_backends() {
 #[test]
 fn crosscheck_finds_no_unexplained_disagreement_on_instances() {
     let scene = instanced_scene();
-    let device = strahl::embree::Device::new().unwrap();
-    let embree = strahl::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap();
+    let device = strahl::accel::embree::Device::new().unwrap();
+    let embree = strahl::accel::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap();
     let native = Bvh::build(&scene).unwrap();
     for kind in RayKind::CLOSEST_HIT {
         let report = crosscheck::run(&scene, &embree, &native, kind, 200_000, 3).unwrap();
@@ -143,15 +143,16 @@ fn instance_hits_report_the_flattened_triangles_world_normal() {
     use strahl::accel::Accel;
     let scene = instanced_scene();
     let flat = flatten(&scene);
-    let device = strahl::embree::Device::new().unwrap();
+    let device = strahl::accel::embree::Device::new().unwrap();
     let backends: [(Box<dyn Accel>, Box<dyn Accel>); 2] = [
         (
-            Box::new(strahl::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap()),
-            Box::new(strahl::embree::EmbreeAccel::build(&device, &flat, Default::default()).unwrap()),
+            Box::new(strahl::accel::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap()),
+            Box::new(strahl::accel::embree::EmbreeAccel::build(&device, &flat, Default::default()).unwrap()),
         ),
         (Box::new(Bvh::build(&scene).unwrap()), Box::new(Bvh::build(&flat).unwrap())),
     ];
-    let rays = strahl::workload::rays(&scene, RayKind::Primary, 40_000, 1, &Bvh::build(&flat).unwrap()).unwrap();
+    let rays =
+        strahl::verify::workload::rays(&scene, RayKind::Primary, 40_000, 1, &Bvh::build(&flat).unwrap()).unwrap();
     for (inst, flat_accel) in &backends {
         let (mut compared, mut mirrored, mut worst_dir, mut worst_len) = (0, 0, 0.0f32, 0.0f32);
         for ray in &rays {

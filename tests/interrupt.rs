@@ -1,5 +1,5 @@
 //! SIGINT and SIGTERM while an output is being written: strahl exits with 128 + signal, the
-//! temporary file is gone and the previous output is untouched (`strahl::signals`). Temporary
+//! temporary file is gone and the previous output is untouched (`strahl::sys::signals`). Temporary
 //! names are short (`.strahl-PID-N.tmp`), so a 250-byte output name renders.
 
 mod common;
@@ -76,7 +76,7 @@ fn a_failing_png_leaves_the_previous_exr_and_no_temporary() {
 
 /// SIGKILL between the EXR's rename and the PNG's (held open by `STRAHL_TEST_COMMIT_DELAY_MS`):
 /// the folder has the new EXR and no PNG — never the new EXR beside the previous render's PNG
-/// (the old PNG is removed before the first rename, `strahl::io::atomic`). The PNG's temporary
+/// (the old PNG is removed before the first rename, `strahl::sys::atomic`). The PNG's temporary
 /// is left, as after any SIGKILL.
 #[test]
 fn sigkill_between_the_renames_never_pairs_the_new_exr_with_the_old_png() {

@@ -12,9 +12,9 @@ use std::f64::consts::PI;
 use common::{TempDir, data_dir, lecture_ray, rel, render, triangle_hit};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
-use strahl::io::{MeshOptions, load_mesh};
 use strahl::light::Light;
 use strahl::scene::Scene;
+use strahl::scene::load::{MeshOptions, load_mesh};
 
 /// How close (in barycentric terms) to a triangle's outline a ray may pass before f32 and f64
 /// might disagree on which triangle it hits.

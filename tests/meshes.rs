@@ -10,9 +10,9 @@ mod common;
 use std::path::Path;
 
 use common::{TempDir, data_dir};
-use strahl::io::{LoadedMesh, MeshError, MeshOptions, load_mesh, ply};
 use strahl::material::Texture;
 use strahl::math::Vec3;
+use strahl::scene::load::{LoadedMesh, MeshError, MeshOptions, load_mesh, ply};
 use strahl::scene::procedural;
 
 fn load(path: &Path) -> Result<LoadedMesh, MeshError> {
@@ -417,9 +417,9 @@ fn mutated_real_files_never_panic() {
                 if name.ends_with(".ply") {
                     let _ = ply::parse(&path, &d, &options);
                 } else if name.ends_with(".mtl") {
-                    let _ = strahl::io::obj::parse_mtl(&path, &d, &mut Vec::new());
+                    let _ = strahl::scene::load::obj::parse_mtl(&path, &d, &mut Vec::new());
                 } else {
-                    let _ = strahl::io::obj::parse(&path, &d, &options);
+                    let _ = strahl::scene::load::obj::parse(&path, &d, &options);
                 }
             });
             assert!(result.is_ok(), "{name} mutated to {:?} panicked", String::from_utf8_lossy(&d));
@@ -488,7 +488,7 @@ fn bad_input_is_one_line_naming_the_file_and_line() {
 /// The area of a polygon in its plane (half the Newell normal's length) and its outline
 /// projected onto that plane's best coordinate plane.
 fn polygon_area(corners: &[Vec3]) -> f64 {
-    strahl::io::polygon::newell_normal(corners).length() / 2.0
+    strahl::scene::load::polygon::newell_normal(corners).length() / 2.0
 }
 
 fn inside(p: [f64; 2], outline: &[[f64; 2]]) -> bool {
@@ -513,14 +513,14 @@ fn check_tiles_the_polygon(path: &Path, corners: &[Vec3]) {
         .sum();
     let area = polygon_area(corners);
     assert!((total - area).abs() < 1e-5 * area, "triangles cover {total}, the polygon is {area}");
-    let normal = strahl::io::polygon::newell_normal(corners);
-    let outline = strahl::io::polygon::project(corners, normal);
+    let normal = strahl::scene::load::polygon::newell_normal(corners);
+    let outline = strahl::scene::load::polygon::project(corners, normal);
     for i in 0..m.indices.len() {
         let [a, b, c] = m.triangle(i);
         let centroid = (a + b + c) / 3.0;
         let mut with_centroid = corners.to_vec();
         with_centroid.push(centroid);
-        let projected = strahl::io::polygon::project(&with_centroid, normal);
+        let projected = strahl::scene::load::polygon::project(&with_centroid, normal);
         assert!(inside(projected[corners.len()], &outline), "triangle {i}'s centroid {centroid} is outside");
         // And the triangle faces the way the polygon does.
         assert!((b - a).cross(c - a).as_dvec3().dot(normal) > 0.0, "triangle {i} is flipped");

@@ -1,4 +1,4 @@
-//! The EXR's blocks compressed while the tiles render (`strahl::io::exr_stream`), through the
+//! The EXR's blocks compressed while the tiles render (`strahl::output::exr_stream`), through the
 //! command line: the file is the same bytes on 1 and 2 threads whether the compressed blocks
 //! wait in memory or in a scratch file beside the output, and an interrupted render leaves no
 //! scratch file.

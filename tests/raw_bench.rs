@@ -1,5 +1,5 @@
 //! The yardstick of `strahl bench` answers as strahl's wrapper does: the raw `rtcIntersect1`
-//! and `rtcIntersect8` loops (`strahl::embree::raw_bench`) keep, for every ray, the hit that
+//! and `rtcIntersect8` loops (`strahl::accel::embree::raw_bench`) keep, for every ray, the hit that
 //! `EmbreeAccel::intersect` and `intersect_batch` hand over (distance, normal, barycentrics,
 //! ids, bit for bit), and the raw any-hit loops the same answers as `occluded`; on the
 //! Stanford bunny, 40,000 rays of each kind, two threads.
@@ -7,10 +7,10 @@
 mod common;
 
 use strahl::accel::Hit;
-use strahl::bench::{self, CHUNK};
-use strahl::embree::raw_bench::{RawHit, RawRays};
-use strahl::embree::{BuildOptions, Device, DeviceOptions, EmbreeAccel};
-use strahl::workload::{self, RayKind};
+use strahl::accel::embree::raw_bench::{RawHit, RawRays};
+use strahl::accel::embree::{BuildOptions, Device, DeviceOptions, EmbreeAccel};
+use strahl::verify::bench::{self, CHUNK};
+use strahl::verify::workload::{self, RayKind};
 
 fn same(raw: &RawHit, hit: &Option<Hit>) -> bool {
     match hit {

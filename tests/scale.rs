@@ -12,7 +12,7 @@ use std::process::Command;
 use common::TempDir;
 use strahl::accel::Accel;
 use strahl::scene::{Scene, load};
-use strahl::workload::{self, RayKind};
+use strahl::verify::workload::{self, RayKind};
 
 fn scale_scene(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scale").join(name)
@@ -35,8 +35,8 @@ fn the_forest_is_a_thousand_instances_of_one_327k_triangle_blob() {
     assert_eq!(scene.prototypes[0].positions.len(), 163_842);
 
     // The camera sees hundreds of different instances (primary rays through Embree).
-    let device = strahl::embree::Device::new().unwrap();
-    let accel = strahl::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap();
+    let device = strahl::accel::embree::Device::new().unwrap();
+    let accel = strahl::accel::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap();
     let rays = workload::rays(&scene, RayKind::Primary, 160 * 90, 1, &accel).unwrap();
     let mut seen = std::collections::BTreeSet::new();
     for ray in &rays {
@@ -141,11 +141,11 @@ fn crosscheck_on_the_forest_finds_no_unexplained_disagreement() {
     // blob, within rounding at these coordinates (0.6 ε·M): Embree 3 hits it at t = 3.2e-6,
     // the native BVH puts it behind the origin; the explanation rule covers such starts.
     let scene = forest();
-    let device = strahl::embree::Device::new().unwrap();
-    let embree = strahl::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap();
-    let native = strahl::bvh::Bvh::build(&scene).unwrap();
+    let device = strahl::accel::embree::Device::new().unwrap();
+    let embree = strahl::accel::embree::EmbreeAccel::build(&device, &scene, Default::default()).unwrap();
+    let native = strahl::accel::bvh::Bvh::build(&scene).unwrap();
     for (kind, n) in [(RayKind::Random, 1_000_000), (RayKind::Primary, 200_000), (RayKind::Secondary, 200_000)] {
-        let report = strahl::crosscheck::run(&scene, &embree, &native, kind, n, 1).unwrap();
+        let report = strahl::verify::crosscheck::run(&scene, &embree, &native, kind, n, 1).unwrap();
         println!("{kind}: {report}");
         assert_eq!(report.unexplained, 0, "{kind}: {report}");
         assert!(report.both_hit * 4 > report.rays, "{kind}: {report}");

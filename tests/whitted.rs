@@ -9,9 +9,9 @@ use std::f64::consts::PI;
 
 use common::{lecture_ray, rel};
 use glam::DVec3;
-use strahl::TraceError;
 use strahl::geometry::{Plane, Sphere};
-use strahl::integrator::{self, RayCounts, THROUGHPUT_CUTOFF};
+use strahl::integrator::whitted::THROUGHPUT_CUTOFF;
+use strahl::integrator::{self, RayCounts, RenderError};
 use strahl::light::Light;
 use strahl::material::{Material, Texture};
 use strahl::math::Vec3;
@@ -65,7 +65,7 @@ fn point_irradiance(p: DVec3) -> DVec3 {
     INTENSITY.as_dvec3() * cos / to.length_squared()
 }
 
-fn assert_rgb(film: &strahl::film::Film, x: u32, y: u32, expected: DVec3, what: &str) {
+fn assert_rgb(film: &strahl::output::film::Film, x: u32, y: u32, expected: DVec3, what: &str) {
     let px = film.rgba[film.index(x, y)];
     for c in 0..3 {
         assert!(rel(px[c], expected[c]) <= 1e-5, "{what}: pixel ({x}, {y}) channel {c}: {} vs {}", px[c], expected[c]);
@@ -314,7 +314,7 @@ fn facing_perfect_mirrors_bounce_to_the_depth_limit_without_exhausting_the_stack
     // looking straight down: every bounce hits the other mirror with throughput 1, so the
     // ray bounces exactly max_depth times and then sees nothing (the mirrors are black).
     let mirror = Material::mirror("mirror", Vec3::ONE);
-    let max_depth = integrator::MAX_DEPTH_LIMIT;
+    let max_depth = strahl::scene::MAX_DEPTH_LIMIT;
     let s = Scene {
         camera: CameraSpec {
             eye: Vec3::new(0.0, 0.5, 0.0),
@@ -488,7 +488,7 @@ fn scenes_that_cannot_be_rendered_are_refused_with_one_line() {
     let mut s = floor_scene();
     s.spheres.push(Sphere { center: Vec3::ZERO, radius: 1.0, material: 3 });
     let e = err(s);
-    assert!(matches!(e, TraceError::InvalidScene(_)));
+    assert!(matches!(e, RenderError::InvalidScene(_)));
     assert_eq!(e.to_string(), "sphere 0: material 3 does not exist (the scene has 1)");
     let mut s = floor_scene();
     s.image.spp = 0;
@@ -496,7 +496,7 @@ fn scenes_that_cannot_be_rendered_are_refused_with_one_line() {
     let mut s = floor_scene();
     s.camera.up = Vec3::new(0.0, -2.0, -4.0); // along the view direction
     let e = err(s);
-    assert!(matches!(e, TraceError::Camera(_)), "{e:?}");
+    assert!(matches!(e, RenderError::Camera(_)), "{e:?}");
     assert!(e.to_string().starts_with("camera: up"));
     let mut s = floor_scene();
     s.materials[0].ior = f32::NAN;

@@ -5,5 +5,5 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let path = std::path::Path::new("/nonexistent/strahl-fuzz/f.gltf");
-    let _ = strahl::io::gltf::parse_gltf(path, data.to_vec());
+    let _ = strahl::scene::load::gltf::parse_gltf(path, data.to_vec());
 });

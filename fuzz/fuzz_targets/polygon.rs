@@ -15,7 +15,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let mut out = Vec::new();
-    let _ = strahl::io::polygon::triangulate(&corners, &mut out);
+    let _ = strahl::scene::load::polygon::triangulate(&corners, &mut out);
     assert!(out.len() <= corners.len() - 2, "{} triangles for {} corners", out.len(), corners.len());
     assert!(out.iter().flatten().all(|&i| (i as usize) < corners.len()));
 });

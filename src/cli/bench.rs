@@ -1,7 +1,7 @@
 //! `strahl bench SCENE [--rays N] [--kind primary|random|secondary|shadow|all] [--threads T,...]
 //! [--runs R] [--seed S]`: BVH build times and Mrays/s of Embree single rays, Embree 8-wide
 //! packets and the native BVH on the same rays, per kind and thread count
-//! ([`strahl::bench::run`]), printed as a table. SCENE is a scene file, or a mesh file on its
+//! ([`strahl::verify::bench::run`]), printed as a table. SCENE is a scene file, or a mesh file on its
 //! own. The machine's load average is printed before and after: timings on a busy machine are
 //! slower and noisier, and the Mrays per CPU-second rows are less affected than the wall clock.
 
@@ -9,8 +9,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use strahl::bench::{self, Config};
-use strahl::workload;
+use strahl::verify::bench::{self, Config};
+use strahl::verify::workload;
 
 use super::KindArg;
 
@@ -58,7 +58,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         if config.runs == 1 { "" } else { "s" },
         load_average()
     );
-    println!("{}", super::embree_device(1)?.describe());
+    println!("{}", strahl::job::embree_device(1)?.describe());
     let report = bench::run(&scene, &config).with_context(|| format!("{}: benchmark failed", args.scene.display()))?;
     println!("{report}");
     println!("load average after: {}", load_average());

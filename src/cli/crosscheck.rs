@@ -1,6 +1,6 @@
 //! `strahl crosscheck SCENE [--rays N] [--kind primary|random|secondary|all] [--threads T]
 //! [--seed S]`: traces the same rays through Embree and the native BVH
-//! ([`strahl::crosscheck::run`]) and prints, per kind of ray, how often they agree and how any
+//! ([`strahl::verify::crosscheck::run`]) and prints, per kind of ray, how often they agree and how any
 //! disagreement is explained; then fails (exit status 1, one `error:` line) if any is not.
 //! SCENE is a scene file, or a mesh file on its own.
 
@@ -9,10 +9,10 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use strahl::bvh::Bvh;
-use strahl::crosscheck::{self, Disagreement, Report};
-use strahl::embree::{BuildOptions, EmbreeAccel};
-use strahl::workload::{self, RayKind};
+use strahl::accel::bvh::Bvh;
+use strahl::accel::embree::{BuildOptions, EmbreeAccel};
+use strahl::verify::crosscheck::{self, Disagreement, Report};
+use strahl::verify::workload::{self, RayKind};
 
 use super::CrosscheckKind;
 
@@ -43,9 +43,9 @@ pub struct CrosscheckArgs {
 pub fn run(args: CrosscheckArgs) -> anyhow::Result<()> {
     let scene = super::load_scene(&args.scene)?.scene;
     super::check_bounded(&args.scene, &scene)?;
-    let threads = super::thread_count(args.threads.map(|t| t as usize));
-    let pool = super::thread_pool(threads)?;
-    let device = super::embree_device(threads)?;
+    let threads = strahl::job::thread_count(args.threads.map(|t| t as usize));
+    let pool = strahl::job::thread_pool(threads)?;
+    let device = strahl::job::embree_device(threads)?;
     let shown = args.scene.display();
 
     let start = Instant::now();
@@ -139,7 +139,7 @@ fn plural(n: usize) -> &'static str {
 
 #[cfg(test)]
 mod tests {
-    use strahl::embree::Device;
+    use strahl::accel::embree::Device;
     use strahl::math::Vec3;
     use strahl::scene::{Mesh, Scene};
 

@@ -78,7 +78,7 @@ fn shell_path(p: &Path) -> anyhow::Result<String> {
 
 /// `path` made absolute without requiring it to exist (its directory must).
 fn absolute(path: &Path, what: &str) -> anyhow::Result<PathBuf> {
-    let dir = strahl::io::atomic::directory_of(path);
+    let dir = strahl::sys::atomic::directory_of(path);
     let dir = dir
         .canonicalize()
         .with_context(|| format!("{}: the directory of the {what} does not exist", path.display()))?;
@@ -142,8 +142,8 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<()> {
     writeln!(merge, "exec {} merge {} {}", shell_path(&strahl)?, shell_path(&output)?, parts.join(" "))?;
 
     let (render_script, merge_script) = (dir.join("render.sbatch"), dir.join("merge.sbatch"));
-    strahl::io::atomic::write_atomically(&render_script, render.as_bytes())?;
-    strahl::io::atomic::write_atomically(&merge_script, merge.as_bytes())?;
+    strahl::sys::atomic::write_atomically(&render_script, render.as_bytes())?;
+    strahl::sys::atomic::write_atomically(&merge_script, merge.as_bytes())?;
     println!("wrote {} ({n} tile renders) and {}", render_script.display(), merge_script.display());
     if !a.submit {
         println!("submit with:");

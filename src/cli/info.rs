@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use strahl::light::mesh::MeshEmitter;
+use strahl::integrator::lights::mesh_emitters;
 use strahl::scene::{Loaded, ObjectSummary, Scene};
 
 /// Arguments of `strahl info`.
@@ -33,9 +33,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let mut loaded = super::load_scene(&args.scene)?;
     let load_seconds = start.elapsed().as_secs_f64();
     // The size and passes a render would be given, for the memory estimate.
-    super::override_image(&args.scene, &mut loaded.scene.image, [args.width, args.height, None, None])?;
+    strahl::job::override_image(&args.scene, &mut loaded.scene.image, [args.width, args.height, None, None])?;
     if let Some(passes) = &args.passes {
-        loaded.scene.output.passes = super::parse_passes(passes)?;
+        loaded.scene.output.passes = strahl::job::parse_passes(passes)?;
     }
     print!("{}", describe(&args.scene.display().to_string(), &loaded, load_seconds));
     Ok(())
@@ -78,7 +78,7 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
         format!("degenerate triangles dropped: {dropped}"),
         format!(
             "memory estimate: {} at {} × {} (strahl render refuses more than --max-memory)",
-            strahl::memory::estimate(scene, scene.image.width as u64 * scene.image.height as u64),
+            strahl::job::memory::estimate(scene, scene.image.width as u64 * scene.image.height as u64),
             scene.image.width,
             scene.image.height
         ),
@@ -88,9 +88,9 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
 }
 
 /// `lights: 3 (1 with an area, 1 emitting mesh)`: point and directional lights, area lights,
-/// and the meshes whose emission lights the scene ([`MeshEmitter`]).
+/// and the meshes whose emission lights the scene ([`mesh_emitters`]).
 fn lights_line(scene: &Scene) -> String {
-    let (area, meshes) = (scene.area_lights.len(), MeshEmitter::of_scene(scene).len());
+    let (area, meshes) = (scene.area_lights.len(), mesh_emitters(scene).len());
     let total = scene.lights.len() + area + meshes;
     let mut parts = Vec::new();
     if area > 0 {

@@ -1,13 +1,13 @@
 //! `strahl merge OUT.exr PARTS…`: joins the EXRs of regions of one render (`render --region`
-//! or `--tile I/N`) into the whole image, written atomically ([`strahl::merge`] states the
+//! or `--tile I/N`) into the whole image, written atomically ([`strahl::output::merge`] states the
 //! rules: one scene and settings, no overlap, a complete cover).
 
 use std::path::PathBuf;
 
 use anyhow::bail;
 use clap::Args;
-use strahl::io::atomic::write_atomically;
-use strahl::io::same_file::same_file;
+use strahl::sys::atomic::write_atomically;
+use strahl::sys::same_file::same_file;
 
 /// Arguments of `strahl merge`.
 #[derive(Args, Debug)]
@@ -33,8 +33,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             bail!("{}: is both a part and the output; merge never overwrites a part", out.display());
         }
     }
-    let threads = super::thread_count(args.threads.map(|t| t as usize));
-    let bytes = strahl::merge::merge(&args.parts, threads)?;
+    let threads = strahl::job::thread_count(args.threads.map(|t| t as usize));
+    let bytes = strahl::output::merge::merge(&args.parts, threads)?;
     write_atomically(out, &bytes)?;
     println!("merged {} parts into {} ({:.1} MB)", args.parts.len(), out.display(), bytes.len() as f64 / 1e6);
     Ok(())

@@ -1,5 +1,8 @@
-//! The `strahl` command's subcommands, one file each (`render.rs`, `merge.rs`, `farm.rs`, `info.rs`,
-//! `crosscheck.rs`, `bench.rs`), and what they share: loading the scene, the thread pool and the Embree device.
+//! The `strahl` command: argument parsing and printing only. Each subcommand (one file each:
+//! `render.rs`, `merge.rs`, `farm.rs`, `info.rs`, `crosscheck.rs`, `bench.rs`) turns its
+//! arguments into a call of the library (`render` a [`strahl::job::RenderJob`], `merge`
+//! [`strahl::output::merge`], `crosscheck` and `bench` [`strahl::verify`]) and prints what it
+//! returns; this file holds what they share: loading the scene and the argument enums.
 //! Errors are `anyhow` with context; `main` prints them as one line.
 
 mod bench;
@@ -14,8 +17,8 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use strahl::io::MeshFormat;
-use strahl::workload::RayKind;
+use strahl::scene::load::MeshFormat;
+use strahl::verify::workload::RayKind;
 
 /// strahl: an offline Whitted-style ray tracer over Intel Embree.
 #[derive(Parser, Debug)]
@@ -45,7 +48,7 @@ enum Command {
 /// What `strahl --version` prints: strahl's version, then the Embree library it loaded (version,
 /// headers when they differ, ISA), or why no Embree device could be created.
 pub fn version_report() -> String {
-    let embree = match strahl::embree::Device::new() {
+    let embree = match strahl::accel::embree::Device::new() {
         Ok(device) => device.describe(),
         Err(e) => format!("Embree unavailable: {e}"),
     };
@@ -54,8 +57,8 @@ pub fn version_report() -> String {
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    // SIGINT/SIGTERM remove the temporary files of outputs being written (strahl::signals).
-    strahl::signals::install().context("cannot install the signal handlers")?;
+    // SIGINT/SIGTERM remove the temporary files of outputs being written (strahl::sys::signals).
+    strahl::sys::signals::install().context("cannot install the signal handlers")?;
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
@@ -72,7 +75,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// file (OBJ, PLY) as a scene of that mesh alone ([`strahl::scene::from_mesh_file`]), told
 /// apart by the file's extension.
 fn load_scene_with_camera(path: &Path, camera: Option<&str>) -> anyhow::Result<strahl::scene::Loaded> {
-    let loaded = if strahl::io::gltf::is_gltf(path) {
+    let loaded = if strahl::scene::load::gltf::is_gltf(path) {
         strahl::scene::from_gltf_file(path, camera)?
     } else if camera.is_some() {
         anyhow::bail!("{}: --camera chooses among the cameras of a glTF file; this is not one", path.display());
@@ -93,31 +96,44 @@ fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
     load_scene_with_camera(path, None)
 }
 
-/// The image settings of the command line (`--width`, `--height`, `--spp`, `--depth`; `None`
-/// keeps the scene's) applied to `image` of the scene at `path`, checked as the scene file's
-/// own are ([`strahl::scene::file::image_problem`]).
-fn override_image(
-    path: &Path,
-    image: &mut strahl::scene::ImageSpec,
-    [width, height, spp, depth]: [Option<u32>; 4],
-) -> anyhow::Result<()> {
-    image.width = width.unwrap_or(image.width);
-    image.height = height.unwrap_or(image.height);
-    image.spp = spp.unwrap_or(image.spp);
-    image.max_depth = depth.unwrap_or(image.max_depth);
-    if let Some((_, problem)) = strahl::scene::file::image_problem(image) {
-        anyhow::bail!("{}: with the command-line settings: {problem}", path.display());
-    }
-    Ok(())
-}
-
-/// The passes of `--passes LIST`.
-fn parse_passes(list: &[String]) -> anyhow::Result<strahl::passes::PassSet> {
-    strahl::passes::PassSet::parse(list).map_err(|m| anyhow::anyhow!("--passes: {m}"))
-}
-
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).
 const MAX_RAYS: u64 = 20_000_000;
+
+/// `--exr-layout`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LayoutArg {
+    /// `ViewLayer.Combined.R`, `ViewLayer.Depth.Z`, … (Blender's Image node lists the passes).
+    Blender,
+    /// `R G B A`, `Z`, `N.X`, … (Nuke's rgba, depth and layer.channel).
+    Nuke,
+}
+
+/// `--backend`: the ray-tracing backends `strahl render` can use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    /// Intel Embree (triangles in its BVH, spheres as user geometry).
+    Embree,
+    /// strahl's pure-Rust BVH (`strahl::accel::bvh`).
+    Native,
+}
+
+impl From<LayoutArg> for strahl::output::exr::Layout {
+    fn from(layout: LayoutArg) -> Self {
+        match layout {
+            LayoutArg::Blender => strahl::output::exr::Layout::Blender,
+            LayoutArg::Nuke => strahl::output::exr::Layout::Nuke,
+        }
+    }
+}
+
+impl From<Backend> for strahl::job::Backend {
+    fn from(backend: Backend) -> Self {
+        match backend {
+            Backend::Embree => strahl::job::Backend::Embree,
+            Backend::Native => strahl::job::Backend::Native,
+        }
+    }
+}
 
 /// Which kinds of rays `bench` traces (`crosscheck` takes [`CrosscheckKind`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -160,27 +176,6 @@ impl CrosscheckKind {
             CrosscheckKind::All => RayKind::CLOSEST_HIT.to_vec(),
         }
     }
-}
-
-/// The number of threads to use: `requested`, or one per core.
-fn thread_count(requested: Option<usize>) -> usize {
-    requested.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-}
-
-/// A rayon pool of `threads` workers, each with flush-to-zero on as Embree asks.
-fn thread_pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .thread_name(|i| format!("strahl-{i}"))
-        .start_handler(|_| strahl::embree::enable_flush_to_zero())
-        .build()
-        .with_context(|| format!("cannot start {threads} threads"))
-}
-
-/// An Embree device that builds BVHs on `threads` threads.
-fn embree_device(threads: usize) -> anyhow::Result<strahl::embree::Device> {
-    strahl::embree::Device::with_options(strahl::embree::DeviceOptions { threads: Some(threads) })
-        .context("cannot start Embree")
 }
 
 /// Refuses a scene with no meshes or spheres, naming its file: planes are tested outside both

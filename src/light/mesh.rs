@@ -24,12 +24,11 @@ use glam::DVec3;
 
 use crate::light::Incidence;
 use crate::math::{Vec2, Vec3};
-use crate::scene::Scene;
 
 /// The emitting triangles of one mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshEmitter {
-    /// Index into `Scene::meshes`.
+    /// Index into the scene's meshes.
     pub mesh: u32,
     corners: Vec<[DVec3; 3]>,
     radiance: Vec<Vec3>,
@@ -40,45 +39,23 @@ pub struct MeshEmitter {
 }
 
 impl MeshEmitter {
-    /// The emitters of `scene`: one per mesh with emitting triangles of non-zero area (none
-    /// when the scene's `image.mesh_lights` is off).
-    pub fn of_scene(scene: &Scene) -> Vec<MeshEmitter> {
-        let mut out = Vec::new();
-        if !scene.image.mesh_lights {
-            return out;
-        }
-        for (k, mesh) in scene.meshes.iter().enumerate() {
-            let emission =
-                |i: usize| scene.materials.get(mesh.material_of(i) as usize).map_or(Vec3::ZERO, |m| m.emission);
-            let mut e = MeshEmitter {
-                mesh: k as u32,
-                corners: Vec::new(),
-                radiance: Vec::new(),
-                cdf: Vec::new(),
-                samples: scene.image.mesh_light_samples.max(1),
-            };
-            let mut total = 0.0;
-            for i in 0..mesh.indices.len() {
-                let l = emission(i);
-                // An area light's own geometry emits, but the light is sampled as itself.
-                let area_light = scene.materials.get(mesh.material_of(i) as usize).is_some_and(|m| m.area_light);
-                if l == Vec3::ZERO || area_light || !l.is_finite() {
-                    continue;
-                }
-                let [a, b, c] = mesh.triangle(i).map(|p| p.as_dvec3());
-                let area = 0.5 * (b - a).cross(c - a).length();
-                if area > 0.0 && area.is_finite() {
-                    total += area;
-                    e.corners.push([a, b, c]);
-                    e.radiance.push(l);
-                    e.cdf.push(total);
-                }
-            }
-            if !e.corners.is_empty() {
-                out.push(e);
+    /// The emitter of mesh `mesh` (an index into the scene's meshes) made of `triangles`
+    /// (corners and radiance), cast `samples` times per shading point; triangles of zero or
+    /// non-finite area are left out, and with them all, so is the emitter (`None`).
+    pub fn new(mesh: u32, samples: u32, triangles: impl IntoIterator<Item = ([Vec3; 3], Vec3)>) -> Option<MeshEmitter> {
+        let mut e = MeshEmitter { mesh, corners: Vec::new(), radiance: Vec::new(), cdf: Vec::new(), samples };
+        let mut total = 0.0;
+        for (corners, l) in triangles {
+            let [a, b, c] = corners.map(|p| p.as_dvec3());
+            let area = 0.5 * (b - a).cross(c - a).length();
+            if area > 0.0 && area.is_finite() {
+                total += area;
+                e.corners.push([a, b, c]);
+                e.radiance.push(l);
+                e.cdf.push(total);
             }
         }
-        out
+        (!e.corners.is_empty()).then_some(e)
     }
 
     /// The emitting area `A`, m².
@@ -115,27 +92,15 @@ impl MeshEmitter {
 mod tests {
     use super::*;
     use crate::light::area::{AreaLight, Shape};
-    use crate::material::Material;
-    use crate::scene::Mesh;
 
     #[test]
     fn a_two_triangle_square_lights_like_the_same_quad_light() {
         // The unit square at height 1 as an emissive mesh and as a two-sided quad light: the
         // same estimate for the same sample points (the mesh splits u.x between its two
         // triangles, so compare the means over a fine grid).
-        let mut scene = Scene::default();
-        scene.materials.push(Material { emission: Vec3::splat(2.0), ..Material::default() });
-        scene.meshes.push(Mesh {
-            positions: vec![
-                Vec3::new(-0.5, 1.0, -0.5),
-                Vec3::new(0.5, 1.0, -0.5),
-                Vec3::new(0.5, 1.0, 0.5),
-                Vec3::new(-0.5, 1.0, 0.5),
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            ..Mesh::default()
-        });
-        let [e] = &MeshEmitter::of_scene(&scene)[..] else { panic!() };
+        let [p0, p1, p2, p3] = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)].map(|(x, z)| Vec3::new(x, 1.0, z));
+        let l = Vec3::splat(2.0);
+        let e = MeshEmitter::new(0, 1, [([p0, p1, p2], l), ([p0, p2, p3], l)]).unwrap();
         assert!((e.area() - 1.0).abs() < 1e-12);
         let quad = AreaLight {
             shape: Shape::Quad { corner: Vec3::new(-0.5, 1.0, -0.5), edge1: Vec3::X, edge2: Vec3::Z },

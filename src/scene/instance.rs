@@ -6,7 +6,7 @@
 //! renormalised, so `t` is the same along both), and report the hit with the instance's
 //! geometry id ([`crate::scene::Scene::instance_geom_id`]) and the prototype's triangle.
 //! Its geometric normal, found in object space, is reported in world space as the flattened
-//! triangle's `(p1 − p0) × (p2 − p0)` would be: `|det L|·L⁻ᵀ·n` ([`WorldNormals`],
+//! triangle's `(p1 − p0) × (p2 − p0)` would be: `|det L|·L⁻ᵀ·n` ([`crate::accel::instance::WorldNormals`],
 //! [`Transform::area_normal_f64`]), so that rays leaving the hit (offset along `ng`, mirrored
 //! about it) are the same for an instance as for its flattened twin.
 //!
@@ -19,7 +19,6 @@
 
 use super::Mesh;
 use super::transform::Transform;
-use crate::accel::Hit;
 use crate::math::{Aabb, Vec3};
 
 /// One placement of a prototype mesh.
@@ -85,32 +84,4 @@ pub fn flatten(scene: &super::Scene) -> super::Scene {
         flat.meshes.push(mesh);
     }
     flat
-}
-
-/// Turns instance hits' object-space geometric normals into world space (see the module
-/// docs); both backends report every hit through it.
-#[derive(Clone, Debug, Default)]
-pub struct WorldNormals {
-    /// The geometry id of instance 0.
-    first: u32,
-    transforms: Vec<Transform>,
-}
-
-impl WorldNormals {
-    /// The instances of `scene`.
-    pub fn of_scene(scene: &super::Scene) -> WorldNormals {
-        WorldNormals {
-            first: scene.instance_geom_id(0),
-            transforms: scene.instances.iter().map(|i| i.transform).collect(),
-        }
-    }
-
-    /// `hit` with its `ng` in world space if it lies on an instance (unchanged otherwise).
-    #[inline]
-    pub fn to_world(&self, hit: Hit) -> Hit {
-        match hit.geom_id.checked_sub(self.first).and_then(|k| self.transforms.get(k as usize)) {
-            Some(t) => Hit { ng: t.area_normal_f64(hit.ng.as_dvec3()).as_vec3(), ..hit },
-            None => hit,
-        }
-    }
 }

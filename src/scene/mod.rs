@@ -1,24 +1,23 @@
 //! The scene as plain data that both backends and the integrator read: world-space triangle
 //! meshes, spheres and planes, materials, lights, the camera and the image settings.
 //!
-//! Loading a scene file ([`load`]: TOML, and the OBJ and PLY files it names) produces a
+//! Loading a scene file ([`load()`]: TOML, and the OBJ and PLY files it names) produces a
 //! [`Scene`], with the warnings to show and a summary of each object ([`Loaded`]); so does a
 //! lone mesh file ([`from_mesh_file`]) and a lone glTF file ([`from_gltf_file`]). Nothing downstream knows which file format the
 //! geometry came from.
 
 pub mod emitters;
-pub mod file;
-pub mod gltf;
 pub mod hash;
 pub mod instance;
+pub mod load;
 pub mod mesh;
 pub mod procedural;
 pub mod subdivide;
 pub mod transform;
 
-pub use file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};
-pub use gltf::from_gltf_file;
 pub use instance::Instance;
+pub use load::file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};
+pub use load::gltf_scene::from_gltf_file;
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};
@@ -115,6 +114,12 @@ impl Default for ImageSpec {
     }
 }
 
+/// The largest `image.max_depth` accepted. Reflection and refraction recurse once per
+/// bounce; this bounds the stack a worker thread needs (well inside rayon's default), and
+/// no image changes visibly beyond it (even between perfect mirrors the `max_depth`-th image
+/// is a speck).
+pub const MAX_DEPTH_LIMIT: u32 = 256;
+
 /// What kind of object a hit's `geom_id` names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GeomKind {
@@ -144,7 +149,7 @@ pub struct Scene {
     /// The names objects go by in Cryptomatte and the object index ([`ObjectNames`]).
     pub names: ObjectNames,
     /// Passes, alpha and Cryptomatte levels (the `[output]` table).
-    pub output: crate::passes::OutputSpec,
+    pub output: crate::output::passes::OutputSpec,
     /// Meshes stored once in their own object space, placed by [`Self::instances`] (not
     /// traced themselves).
     pub prototypes: Vec<Mesh>,

@@ -89,7 +89,7 @@ pub fn blob(subdivisions: u32) -> Mesh {
         let bump = 0.12 * (6.0 * p.x).sin() * (5.0 * p.y + 0.5).sin() * (4.0 * p.z + 1.0).sin();
         *p *= 1.0 + bump;
     }
-    m.normals = Some(crate::io::mesh::smooth_normals(&m.positions, &m.indices));
+    m.normals = Some(crate::scene::load::mesh::smooth_normals(&m.positions, &m.indices));
     m.name = format!("blob{subdivisions}");
     m
 }

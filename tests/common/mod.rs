@@ -11,9 +11,9 @@ use std::process::{Child, Command, Output, Stdio};
 
 use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
 use glam::DVec3;
-use strahl::embree::{BuildOptions, Device, EmbreeAccel};
-use strahl::film::Film;
+use strahl::accel::embree::{BuildOptions, Device, EmbreeAccel};
 use strahl::integrator::{self, RayCounts};
+use strahl::output::film::Film;
 use strahl::scene::{CameraSpec, Scene};
 
 pub fn accel(scene: &Scene) -> EmbreeAccel {

@@ -1,0 +1,177 @@
+//! A pixel's samples, summed and written to the film; shared by every integrator.
+//!
+//! Each camera ray brings a [`CameraSample`]: its radiance, the same radiance split into the
+//! terms of the light-path passes ([`Radiance`], [`crate::output::passes`]) and what it found
+//! first ([`FirstHit`], for the AOVs). A [`PixelAccumulator`] adds a pixel's samples in sample
+//! order (so deterministically) and writes the box filter of them to the film: the mean over
+//! all `spp` samples for RGB, alpha and the light-path passes, over the samples that hit for
+//! normal and albedo, the nearest hit for depth, position and the index passes, and the
+//! Cryptomatte ranks of the objects and materials hit (what each channel holds:
+//! [`crate::output::film`]).
+
+use crate::accel::Hit;
+use crate::math::Vec3;
+use crate::output::cryptomatte;
+use crate::output::film::Film;
+use crate::output::ids::ObjectIds;
+use crate::output::passes::{LIGHT_PASSES, Pass};
+use crate::scene::Scene;
+use crate::surface::SurfacePoint;
+
+/// What one camera ray brings to its pixel: its radiance, split into the passes' terms, and
+/// its first hit (`None` when it escaped).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraSample {
+    pub radiance: Vec3,
+    pub split: Radiance,
+    pub first: Option<FirstHit>,
+}
+
+/// The radiance of a camera ray split into the terms of the shading formula
+/// ([`super::whitted`]); their sum is the beauty to float rounding. Each is in W/(m²·sr).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Radiance {
+    /// Emission `L_e` plus ambient `ρ·L_a` of the first hit.
+    pub emission: Vec3,
+    /// Direct light reflected by the Lambert lobe at the first hit.
+    pub diffuse: Vec3,
+    /// Direct light reflected by the Blinn–Phong highlight at the first hit.
+    pub specular: Vec3,
+    /// What the mirror and Fresnel reflection at the first hit bring, weighted.
+    pub reflection: Vec3,
+    /// What the refraction at the first hit brings, weighted.
+    pub transmission: Vec3,
+    /// The background radiance of a camera ray that hits nothing.
+    pub background: Vec3,
+}
+
+impl Radiance {
+    /// The terms in the order of [`LIGHT_PASSES`].
+    pub fn terms(&self) -> [Vec3; 6] {
+        [self.emission, self.diffuse, self.specular, self.reflection, self.transmission, self.background]
+    }
+
+    /// The sum of the terms.
+    pub fn sum(&self) -> Vec3 {
+        self.terms().into_iter().sum()
+    }
+}
+
+/// What a primary ray found at its first hit, for the AOVs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstHit {
+    /// Distance from the eye (the primary ray's direction has unit length).
+    pub t: f32,
+    /// World-space unit shading normal, facing the eye.
+    pub normal: Vec3,
+    /// Diffuse albedo.
+    pub albedo: Vec3,
+    /// World-space position.
+    pub p: Vec3,
+    /// The scene's material index.
+    pub material: u32,
+    /// The hit itself (which object: [`ObjectIds::object_of`]).
+    pub hit: Hit,
+}
+
+impl FirstHit {
+    /// What the AOVs record of the camera ray's `hit`, shaded as `sp`.
+    pub fn new(sp: &SurfacePoint, hit: &Hit) -> Self {
+        FirstHit { t: sp.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit }
+    }
+}
+
+/// The running sums of one pixel's samples (added in sample order, so deterministically).
+#[derive(Clone, Debug, Default)]
+pub struct PixelAccumulator {
+    radiance: Vec3,
+    split: [Vec3; 6],
+    hits: u32,
+    nearest: Option<FirstHit>,
+    normal: Vec3,
+    albedo: Vec3,
+    /// (object, samples) and (material, samples), only when a Cryptomatte pass is on.
+    objects: Vec<(u32, u32)>,
+    materials: Vec<(u32, u32)>,
+}
+
+/// Adds one sample of `key` to a list of (key, count).
+fn count(list: &mut Vec<(u32, u32)>, key: u32) {
+    match list.iter_mut().find(|(k, _)| *k == key) {
+        Some((_, n)) => *n += 1,
+        None => list.push((key, 1)),
+    }
+}
+
+impl PixelAccumulator {
+    /// Adds one sample: its beauty, its split, its first hit and, when Cryptomatte is on
+    /// (`object` is `Some`), the object of that hit.
+    pub fn add(&mut self, radiance: Vec3, split: &Radiance, first: Option<FirstHit>, object: Option<u32>) {
+        self.radiance += radiance;
+        for (sum, term) in self.split.iter_mut().zip(split.terms()) {
+            *sum += term;
+        }
+        if let Some(f) = first {
+            self.hits += 1;
+            // The nearest sample's hit; the first in sample order among equals.
+            if self.nearest.is_none_or(|n| f.t < n.t) {
+                self.nearest = Some(f);
+            }
+            self.normal += f.normal;
+            self.albedo += f.albedo;
+            if let Some(object) = object {
+                count(&mut self.objects, object);
+                count(&mut self.materials, f.material);
+            }
+        }
+    }
+
+    /// Box filter: the mean over all `spp` samples for RGB and alpha, over the hit samples for
+    /// normal and albedo; the nearest hit for depth (see [`crate::output::film`]).
+    pub fn write(&self, film: &mut Film, x: u32, y: u32, scene: &Scene, ids: &ObjectIds) {
+        let spp = scene.image.spp;
+        let i = film.index(x, y);
+        let rgb = self.radiance / spp as f32;
+        let alpha = if scene.output.transparent { self.hits as f32 / spp as f32 } else { 1.0 };
+        film.rgba[i] = [rgb.x, rgb.y, rgb.z, alpha];
+        if let Some(first) = self.nearest {
+            if let Some(depth) = film.depth.get_mut(i) {
+                *depth = first.t;
+            }
+            if let Some(normal) = film.normal.get_mut(i) {
+                // One unit normal needs no renormalising (which could move it by an ulp).
+                *normal = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
+            }
+            if let Some(albedo) = film.albedo.get_mut(i) {
+                *albedo = self.albedo / self.hits as f32;
+            }
+        }
+        for aov in &mut film.aovs {
+            let out = &mut aov.data[i * aov.floats_per_pixel..(i + 1) * aov.floats_per_pixel];
+            match aov.pass {
+                pass if pass.is_light() => {
+                    let k = LIGHT_PASSES.iter().position(|&p| p == pass).unwrap_or(0);
+                    out.copy_from_slice(&(self.split[k] / spp as f32).to_array());
+                }
+                Pass::Position => {
+                    out.copy_from_slice(&self.nearest.map_or(Vec3::ZERO, |f| f.p).to_array());
+                }
+                Pass::ObjectIndex => {
+                    out[0] = self.nearest.map_or(0.0, |f| (ids.object_of(scene, &f.hit) + 1) as f32);
+                }
+                Pass::MaterialIndex => out[0] = self.nearest.map_or(0.0, |f| (f.material + 1) as f32),
+                Pass::CryptoObject => {
+                    let mut counts: Vec<(u32, u32)> =
+                        self.objects.iter().map(|&(o, n)| (ids.object_id_bits[o as usize], n)).collect();
+                    cryptomatte::write_ranks(&mut counts, spp, out);
+                }
+                Pass::CryptoMaterial => {
+                    let mut counts: Vec<(u32, u32)> =
+                        self.materials.iter().map(|&(m, n)| (ids.material_id_bits[m as usize], n)).collect();
+                    cryptomatte::write_ranks(&mut counts, spp, out);
+                }
+                _ => {}
+            }
+        }
+    }
+}

@@ -1,0 +1,240 @@
+//! The passes (AOVs) a render can write, and which of them a render writes.
+//!
+//! The light-path passes split the beauty: for every pixel, to float rounding,
+//!
+//! ```text
+//! Combined.RGB = Emit + DiffDir + GlossDir + GlossInd + TransInd + Env
+//! ```
+//!
+//! | pass (`--passes` name) | Blender layer | meaning | unit |
+//! |---|---|---|---|
+//! | `combined` | `Combined` (RGBA) | the beauty; A is the alpha of [`crate::output::film`] | W/(m²·sr) |
+//! | `depth` | `Depth` (Z) | distance from the eye to the nearest first hit, `+inf` on a miss | scene units |
+//! | `normal` | `Normal` (XYZ) | world-space shading normal at the first hit | unit vector |
+//! | `albedo` | `DiffCol` (RGB) | diffuse albedo ρ at the first hit | 1 |
+//! | `emission` | `Emit` | emission `L_e` plus ambient `ρ·L_a` of the first hit | W/(m²·sr) |
+//! | `diffuse` | `DiffDir` | direct light reflected by the Lambert lobe (ρ/π) at the first hit | W/(m²·sr) |
+//! | `specular` | `GlossDir` | direct light reflected by the Blinn–Phong highlight at the first hit | W/(m²·sr) |
+//! | `reflection` | `GlossInd` | everything seen through mirror and Fresnel reflection at the first hit, weighted | W/(m²·sr) |
+//! | `transmission` | `TransInd` | everything seen through refraction at the first hit, weighted | W/(m²·sr) |
+//! | `background` | `Env` | the background radiance of camera rays that hit nothing | W/(m²·sr) |
+//! | `position` | `Position` (XYZ) | world position of the nearest first hit, 0 on a miss | scene units |
+//! | `object_index` | `IndexOB` (X) | 1 + the object's index in the object list (0 on a miss) | 1 |
+//! | `material_index` | `IndexMA` (X) | 1 + the material's index in the scene (0 on a miss) | 1 |
+//! | `crypto_object` | `CryptoObject00..` | Cryptomatte ranks of the objects ([`crate::output::cryptomatte`]) | id, coverage |
+//! | `crypto_material` | `CryptoMaterial00..` | Cryptomatte ranks of the materials | id, coverage |
+//!
+//! Light passes are means over all of the pixel's samples, like the beauty; depth, position
+//! and the indices belong to the nearest hit sample; normal and albedo are means over the
+//! hit samples. What is seen through a mirror (background included) is reflection, not
+//! background: `Env` holds only what camera rays see directly.
+
+use std::fmt;
+
+/// One pass a render can write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Pass {
+    Combined,
+    Depth,
+    Normal,
+    Albedo,
+    Emission,
+    Diffuse,
+    Specular,
+    Reflection,
+    Transmission,
+    Background,
+    Position,
+    ObjectIndex,
+    MaterialIndex,
+    CryptoObject,
+    CryptoMaterial,
+}
+
+/// The light-path passes, in the order they are summed.
+pub const LIGHT_PASSES: [Pass; 6] =
+    [Pass::Emission, Pass::Diffuse, Pass::Specular, Pass::Reflection, Pass::Transmission, Pass::Background];
+
+impl Pass {
+    /// Every pass, in the order of the module docs (and of the channels in the film).
+    pub const ALL: [Pass; 15] = [
+        Pass::Combined,
+        Pass::Depth,
+        Pass::Normal,
+        Pass::Albedo,
+        Pass::Emission,
+        Pass::Diffuse,
+        Pass::Specular,
+        Pass::Reflection,
+        Pass::Transmission,
+        Pass::Background,
+        Pass::Position,
+        Pass::ObjectIndex,
+        Pass::MaterialIndex,
+        Pass::CryptoObject,
+        Pass::CryptoMaterial,
+    ];
+
+    /// The name on the command line and in `[output] passes`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::Combined => "combined",
+            Pass::Depth => "depth",
+            Pass::Normal => "normal",
+            Pass::Albedo => "albedo",
+            Pass::Emission => "emission",
+            Pass::Diffuse => "diffuse",
+            Pass::Specular => "specular",
+            Pass::Reflection => "reflection",
+            Pass::Transmission => "transmission",
+            Pass::Background => "background",
+            Pass::Position => "position",
+            Pass::ObjectIndex => "object_index",
+            Pass::MaterialIndex => "material_index",
+            Pass::CryptoObject => "crypto_object",
+            Pass::CryptoMaterial => "crypto_material",
+        }
+    }
+
+    /// The pass called `name` ([`Pass::name`]).
+    pub fn from_name(name: &str) -> Option<Pass> {
+        Pass::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Whether this is one of the [`LIGHT_PASSES`].
+    pub fn is_light(self) -> bool {
+        LIGHT_PASSES.contains(&self)
+    }
+
+    /// Whether this is a Cryptomatte pass.
+    pub fn is_crypto(self) -> bool {
+        matches!(self, Pass::CryptoObject | Pass::CryptoMaterial)
+    }
+
+    /// Whether the pass is a colour (radiance or reflectance). `--half` stores these, and the
+    /// normals, as half floats ([`crate::output::exr`]).
+    pub fn is_colour(self) -> bool {
+        matches!(self, Pass::Combined | Pass::Albedo) || self.is_light()
+    }
+
+    /// Floats per pixel in the film ([`crate::output::film::Film::aovs`]); `crypto_levels` ranks of
+    /// (id, coverage) make `⌈levels/2⌉` RGBA layers for a Cryptomatte pass.
+    pub fn floats_per_pixel(self, crypto_levels: u32) -> usize {
+        match self {
+            Pass::Combined => 4,
+            Pass::Depth | Pass::ObjectIndex | Pass::MaterialIndex => 1,
+            Pass::CryptoObject | Pass::CryptoMaterial => 4 * crypto_levels.div_ceil(2) as usize,
+            _ => 3,
+        }
+    }
+}
+
+impl fmt::Display for Pass {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A set of passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PassSet(u32);
+
+impl Default for PassSet {
+    /// `combined, depth, normal, albedo`: what strahl always wrote, 44 bytes per pixel.
+    fn default() -> Self {
+        PassSet::of(&[Pass::Combined, Pass::Depth, Pass::Normal, Pass::Albedo])
+    }
+}
+
+impl PassSet {
+    /// The passes in `passes`, plus `combined` (always written).
+    pub fn of(passes: &[Pass]) -> PassSet {
+        PassSet(passes.iter().fold(1 << Pass::Combined as u32, |bits, &p| bits | 1 << p as u32))
+    }
+
+    /// Every pass.
+    pub fn all() -> PassSet {
+        PassSet::of(&Pass::ALL)
+    }
+
+    pub fn contains(self, pass: Pass) -> bool {
+        self.0 & (1 << pass as u32) != 0
+    }
+
+    /// The passes in the set, in [`Pass::ALL`] order.
+    pub fn iter(self) -> impl Iterator<Item = Pass> {
+        Pass::ALL.into_iter().filter(move |&p| self.contains(p))
+    }
+
+    /// Whether any light-path pass is in the set.
+    pub fn any_light(self) -> bool {
+        self.iter().any(Pass::is_light)
+    }
+
+    /// Parses a list of pass names: each a [`Pass::name`], or `default` (the default set) or
+    /// `all`. `combined` is always included. Errors name the unknown pass and the known ones.
+    pub fn parse<S: AsRef<str>>(names: &[S]) -> Result<PassSet, String> {
+        let mut set = PassSet::of(&[]);
+        for name in names {
+            let name = name.as_ref().trim();
+            let more = match name {
+                "default" => PassSet::default(),
+                "all" => PassSet::all(),
+                _ => match Pass::from_name(name) {
+                    Some(p) => PassSet::of(&[p]),
+                    None => {
+                        let known: Vec<&str> = Pass::ALL.iter().map(|p| p.name()).collect();
+                        return Err(format!("unknown pass '{name}' (known: default, all, {})", known.join(", ")));
+                    }
+                },
+            };
+            set.0 |= more.0;
+        }
+        Ok(set)
+    }
+}
+
+/// What the film holds and how alpha is made: the output settings of a scene (`[output]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct OutputSpec {
+    /// The passes rendered.
+    pub passes: PassSet,
+    /// Rays that hit nothing return radiance 0 instead of the background, and alpha is the
+    /// coverage (see [`crate::output::film`]); otherwise alpha is 1 everywhere.
+    pub transparent: bool,
+    /// Cryptomatte ranks of (id, coverage) per pixel ("levels"), 1 to [`MAX_CRYPTO_LEVELS`].
+    pub crypto_levels: u32,
+}
+
+/// Most Cryptomatte levels (ranks) a pass may have.
+pub const MAX_CRYPTO_LEVELS: u32 = 16;
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec { passes: PassSet::default(), transparent: false, crypto_levels: 6 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_parse() {
+        for p in Pass::ALL {
+            assert_eq!(Pass::from_name(p.name()), Some(p));
+        }
+        let set = PassSet::parse(&["depth", "crypto_object"]).unwrap();
+        assert_eq!(set.iter().collect::<Vec<_>>(), [Pass::Combined, Pass::Depth, Pass::CryptoObject]);
+        assert_eq!(PassSet::parse(&["all"]).unwrap(), PassSet::all());
+        assert!(PassSet::parse(&["default", "nope"]).unwrap_err().starts_with("unknown pass 'nope'"));
+        assert!(PassSet::default().contains(Pass::Albedo) && !PassSet::default().any_light());
+    }
+
+    #[test]
+    fn crypto_layers_hold_two_ranks_each() {
+        assert_eq!(Pass::CryptoObject.floats_per_pixel(6), 12);
+        assert_eq!(Pass::CryptoObject.floats_per_pixel(5), 12);
+        assert_eq!(Pass::CryptoMaterial.floats_per_pixel(1), 4);
+    }
+}

@@ -1,0 +1,745 @@
+//! glTF 2.0 import (`.gltf` with external or base64-embedded buffers, and `.glb`), with the
+//! `gltf` crate for parsing and validating the JSON and reading accessors.
+//!
+//! [`load_gltf`] reads the default scene (else scene 0) into strahl's terms; the mapping is
+//! written down in `docs/scene-format.md` ("glTF files"):
+//! - **Meshes**: each glTF mesh becomes one [`Mesh`] in its own (object) space, its
+//!   triangle-mode primitives merged (a material per triangle when they differ); other modes
+//!   are skipped with a warning naming the primitive. Indexed and non-indexed primitives,
+//!   `NORMAL`, `TEXCOORD_0` (its `v` turned into strahl's bottom-left convention, `1 − v`) and
+//!   `COLOR_0` (RGB; alpha ignored).
+//! - **Nodes**: the node hierarchy with TRS or matrix transforms, composed in f64; each node
+//!   with a mesh is a [`MeshNode`] (the mesh and the node's object-to-world transform), so a
+//!   mesh used by several nodes is stored once.
+//! - **Cameras** (perspective: `yfov`, optional `aspectRatio`), looking along the node's −z
+//!   with +y up, and **lights** (`KHR_lights_punctual`) in world space. Photometric units are
+//!   read as strahl's radiometric ones, one for one: a point light's candela as W/sr, a
+//!   directional light's lux as W/m² (the 683 lm/W of photopic vision is *not* applied, so a
+//!   glTF light of intensity `I` renders like a TOML light of intensity `I`). Spot lights
+//!   become point lights (their cone is ignored, with a warning); `range` is ignored.
+//! - **Materials**: see [`material_of`].
+//!
+//! Everything is checked before use, so bad input is a one-line error naming the file and the
+//! glTF element (`accessor 3`), never a panic: the crate's validation (indices into arrays,
+//! required fields, `extensionsRequired` that strahl does not support), then here every
+//! accessor's bytes against its buffer view and buffer, its component type and dimensions
+//! against what the attribute needs (the crate's readers assume them), and vertex indices
+//! against the vertex count.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::{DMat4, DQuat, DVec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+
+use super::MeshError;
+use crate::light::Light;
+use crate::material::{Material, Texture};
+use crate::math::{Vec2, Vec3};
+use crate::scene::transform::Transform;
+use crate::scene::{CameraSpec, Mesh};
+use crate::texture::{Image, ImageTexture, Wrap, open_shared};
+
+/// A node that places a mesh: `GltfFile::meshes[mesh]` through `transform` (object to world).
+#[derive(Clone, Debug)]
+pub struct MeshNode {
+    /// The glTF node's index.
+    pub node: usize,
+    pub mesh: usize,
+    pub transform: Transform,
+}
+
+/// A perspective camera placed by a node.
+#[derive(Clone, Debug)]
+pub struct GltfCamera {
+    /// The glTF camera's index (in the file's `cameras`).
+    pub index: usize,
+    /// The camera's name, else its node's name.
+    pub name: Option<String>,
+    pub spec: CameraSpec,
+    /// Width over height, when the file gives it.
+    pub aspect_ratio: Option<f32>,
+}
+
+/// What a glTF file holds, in strahl's terms.
+#[derive(Clone, Debug, Default)]
+pub struct GltfFile {
+    /// One per glTF mesh (empty for meshes with no triangles), in object space. Their material
+    /// indices index [`Self::materials`].
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    /// The nodes of the scene that place a mesh with triangles, in depth-first order.
+    pub nodes: Vec<MeshNode>,
+    /// The scene's cameras, in depth-first node order.
+    pub cameras: Vec<GltfCamera>,
+    /// The scene's lights, in world space.
+    pub lights: Vec<Light>,
+    /// One line each, naming the file and the element.
+    pub warnings: Vec<String>,
+    /// The files read besides the glTF file itself: external buffers and images.
+    pub files: Vec<PathBuf>,
+}
+
+impl GltfFile {
+    /// Triangles the nodes place (instances counted each time).
+    pub fn placed_triangles(&self) -> usize {
+        self.nodes.iter().map(|n| self.meshes[n.mesh].indices.len()).sum()
+    }
+}
+
+/// Whether `path` names a glTF file (`.gltf` or `.glb`, any case).
+pub fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Deepest node hierarchy followed (deeper is taken for a cycle).
+const MAX_NODE_DEPTH: usize = 1024;
+
+/// Reads the glTF or GLB file at `path`. Image files are shared with every other material
+/// naming them ([`open_shared`]); images embedded in the file are decoded once per file.
+pub fn load_gltf(path: &Path) -> Result<GltfFile, MeshError> {
+    let io = |problem| MeshError::Io { path: path.to_owned(), problem };
+    let cap = crate::sys::read::max_mesh_bytes().map_err(io)?;
+    let bytes = crate::sys::read::read_regular(path, cap, crate::sys::read::MESH_LIMIT_HINT).map_err(io)?;
+    parse_gltf(path, bytes)
+}
+
+/// gltf-json 1.4's validation indexes the accessors with a primitive's POSITION index before
+/// checking it (its `mesh.rs`, `primitive_validate_hook`) and panics on one out of range, which
+/// the fuzz target `gltf` found: check those indices first. A file whose JSON does not parse is
+/// left to the real parse, which reports it.
+fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
+    use gltf::json::mesh::Semantic;
+    use gltf::json::validation::Checked;
+    let glb;
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        let Ok(parsed) = gltf::Glb::from_slice(bytes) else { return Ok(()) };
+        glb = parsed;
+        &glb.json
+    } else {
+        bytes
+    };
+    let Ok(root) = gltf::json::Root::from_slice(json) else { return Ok(()) };
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&Checked::Valid(Semantic::Positions));
+            if let Some(i) = position.map(|i| i.value()).filter(|&i| i >= root.accessors.len()) {
+                let n = root.accessors.len();
+                return Err(format!("mesh {m} primitive {p}: POSITION names accessor {i}, but the file has {n}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`load_gltf`] of a file's `bytes` (external buffers and images are read relative to
+/// `path`'s folder): what the fuzz target `gltf` calls. The bytes are dropped once parsed (a
+/// GLB's binary chunk is copied out of them), before the meshes are built.
+pub fn parse_gltf(path: &Path, bytes: Vec<u8>) -> Result<GltfFile, MeshError> {
+    let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
+    check_position_accessors(&bytes).map_err(err)?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(gltf_error(&e)))?;
+    drop(bytes);
+    let base = path.parent().unwrap_or(Path::new(""));
+    let mut out = GltfFile::default();
+    let buffers = read_buffers(&document, base, blob, &mut out.files).map_err(err)?;
+    let mut reader = Reader { doc: &document, buffers: &buffers, base, images: HashMap::new(), out };
+    reader.materials().map_err(err)?;
+    let scene = document.default_scene().or_else(|| document.scenes().next());
+    let Some(scene) = scene else {
+        return Err(err("the file has no scene".into()));
+    };
+    let mut meshes: Vec<Option<Mesh>> = vec![None; document.meshes().len()];
+    for node in scene.nodes() {
+        reader.node(&node, &Transform::default(), 0, &mut meshes).map_err(err)?;
+    }
+    let mut out = reader.out;
+    out.meshes = meshes.into_iter().map(Option::unwrap_or_default).collect();
+    let file = path.display().to_string();
+    out.warnings.iter_mut().for_each(|w| *w = format!("{file}: {w}"));
+    Ok(out)
+}
+
+/// The crate's error as one line; validation paths (`accessors[3].count`) become
+/// `accessor 3: count`.
+fn gltf_error(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(problems) => {
+            let (path, problem) = &problems[0];
+            let path = path.to_string();
+            if path.starts_with("extensionsRequired") {
+                return format!("{path}: strahl does not support this required extension");
+            }
+            let more = match problems.len() {
+                1 => String::new(),
+                n => format!(" (and {} more problems)", n - 1),
+            };
+            format!("{}: {problem}{more}", element_of_path(&path))
+        }
+        gltf::Error::Deserialize(e) => format!("not valid glTF JSON: {e}"),
+        gltf::Error::Binary(e) => format!("not a valid GLB file: {e}"),
+        e => e.to_string(),
+    }
+}
+
+/// `accessors[3].count` → `accessor 3: count`; `extensionsRequired[0] = "X"` stays.
+fn element_of_path(path: &str) -> String {
+    let singular = |plural: &str| match plural {
+        "meshes" => "mesh".to_string(),
+        p => p.strip_suffix('s').unwrap_or(p).to_string(),
+    };
+    if let Some((head, rest)) = path.split_once('[') {
+        if let Some((index, tail)) = rest.split_once(']') {
+            if index.bytes().all(|b| b.is_ascii_digit()) && head.bytes().all(|b| b.is_ascii_alphabetic()) {
+                let tail = tail.strip_prefix('.').unwrap_or(tail);
+                return if tail.is_empty() {
+                    format!("{} {index}", singular(head))
+                } else {
+                    format!("{} {index}: {tail}", singular(head))
+                };
+            }
+        }
+    }
+    path.to_string()
+}
+
+/// Every buffer's bytes: the GLB binary chunk, a base64 `data:` URI or a file next to the
+/// glTF file. A buffer shorter than its `byteLength` is an error naming it.
+fn read_buffers(
+    doc: &gltf::Document,
+    base: &Path,
+    mut blob: Option<Vec<u8>>,
+    files: &mut Vec<PathBuf>,
+) -> Result<Vec<Vec<u8>>, String> {
+    let mut buffers = Vec::new();
+    for buffer in doc.buffers() {
+        let what = format!("buffer {}", buffer.index());
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => {
+                blob.take().ok_or_else(|| format!("{what}: refers to the GLB binary chunk, which is missing"))?
+            }
+            gltf::buffer::Source::Uri(uri) => read_uri(uri, base, files).map_err(|e| format!("{what}: {e}"))?,
+        };
+        if data.len() < buffer.length() {
+            return Err(format!("{what}: holds {} bytes but byteLength says {}", data.len(), buffer.length()));
+        }
+        buffers.push(data);
+    }
+    Ok(buffers)
+}
+
+/// The bytes a URI names: a base64 `data:` URI, or a (percent-encoded) path relative to
+/// `base`.
+fn read_uri(uri: &str, base: &Path, files: &mut Vec<PathBuf>) -> Result<Vec<u8>, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (_, data) = rest.split_once(";base64,").ok_or_else(|| "a data: URI that is not base64".to_string())?;
+        return base64::decode(data).map_err(|e| format!("the data: URI is not valid base64: {e}"));
+    }
+    if uri.contains("://") {
+        return Err(format!("URI {uri:?}: only relative file paths and data: URIs are read"));
+    }
+    let decoded = urlencoding::decode(uri).map_err(|_| format!("URI {uri:?} is not valid percent-encoding"))?;
+    let file = base.join(decoded.as_ref());
+    if !file.is_file() {
+        return Err(format!("{}: no such file", file.display()));
+    }
+    let limit = crate::sys::read::max_mesh_bytes().map_err(|e| format!("{}: {e}", file.display()))?;
+    let data = crate::sys::read::read_regular(&file, limit, crate::sys::read::MESH_LIMIT_HINT)
+        .map_err(|e| format!("{}: {e}", file.display()))?;
+    files.push(file);
+    Ok(data)
+}
+
+struct Reader<'a> {
+    doc: &'a gltf::Document,
+    buffers: &'a [Vec<u8>],
+    base: &'a Path,
+    /// Decoded glTF images by index (shared by every texture naming the image).
+    images: HashMap<usize, Arc<Image>>,
+    out: GltfFile,
+}
+
+/// The material of primitives that name none: strahl's default grey (glTF's own default, a
+/// rough white metal, has no Whitted counterpart).
+fn default_material() -> Material {
+    Material { name: "gltf default".into(), ..Material::default() }
+}
+
+/// Exponent of the Blinn–Phong lobe matching a glTF roughness `r`: with `α = r²`,
+/// `n = 2/α² − 2` (the usual Beckmann–Phong correspondence), at most 10⁴.
+pub fn shininess_of_roughness(roughness: f32) -> f32 {
+    let alpha = (roughness.clamp(0.0, 1.0) as f64).powi(2);
+    if alpha <= 0.0 { 1e4 } else { (2.0 / (alpha * alpha) - 2.0).clamp(0.0, 1e4) as f32 }
+}
+
+/// Roughness at or below which a metallic (`metallic = 1`) glTF material is an ideal mirror.
+pub const MIRROR_ROUGHNESS: f32 = 0.1;
+
+/// The numbers of a glTF material that [`material_of`] maps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pbr {
+    /// `baseColorFactor` (RGB, clamped to [0, 1]).
+    pub base_factor: Vec3,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// `KHR_materials_transmission` `transmissionFactor` (0 without the extension).
+    pub transmission: f32,
+    /// `KHR_materials_ior` (1.5 without it).
+    pub ior: f32,
+    /// `emissiveFactor` times `KHR_materials_emissive_strength`, W/(m²·sr).
+    pub emission: Vec3,
+}
+
+/// The Whitted material closest to a glTF material, with `base` its base colour (a constant
+/// or a texture times `baseColorFactor`, RGB):
+/// - `KHR_materials_transmission` factor `t > 0` → glass: `transmission = t·base`, index
+///   of refraction `KHR_materials_ior` (default 1.5), diffuse `(1 − t)·base·(1 − metallic)`;
+/// - `metallic = 1` and `roughness ≤ 0.1` → an ideal mirror of reflectance `base`;
+/// - otherwise Lambert `(1 − metallic)·base` plus, for a partly metallic surface, a
+///   normalised Blinn–Phong highlight of weight `metallic·base` and exponent
+///   [`shininess_of_roughness`] (their sum is `base ≤ 1`). A dielectric's own 4 % specular
+///   reflection is left out, so a non-metal is exactly Lambertian, as in a TOML scene.
+/// - emission `emissiveFactor · KHR_materials_emissive_strength`.
+///
+/// A constant base colour is used where a reflectance is needed; a texture only enters the
+/// diffuse term (and is taken by its factor for the other terms).
+pub fn material_of(name: String, base: Texture, pbr: &Pbr) -> Material {
+    let Pbr { base_factor, metallic, roughness, transmission, ior, emission } = *pbr;
+    let scale = |t: &Texture, k: f32| match t {
+        Texture::Constant(c) => Texture::Constant(*c * k),
+        Texture::Image(img) => Texture::Image(ImageTexture { factor: img.factor * k, ..img.clone() }),
+        other => other.clone(),
+    };
+    let metallic = metallic.clamp(0.0, 1.0);
+    let mut m = Material { name, emission, ior, ..Material::default() };
+    if transmission > 0.0 {
+        let t = transmission.min(1.0);
+        m.transmission = base_factor * t;
+        m.diffuse = scale(&base, (1.0 - t) * (1.0 - metallic));
+    } else if metallic >= 1.0 && roughness <= MIRROR_ROUGHNESS {
+        m.diffuse = Texture::Constant(Vec3::ZERO);
+        m.mirror = base_factor;
+    } else {
+        m.diffuse = scale(&base, 1.0 - metallic);
+        if metallic > 0.0 {
+            m.specular = metallic * base_factor;
+            m.shininess = shininess_of_roughness(roughness);
+        }
+    }
+    m
+}
+
+impl Reader<'_> {
+    fn warn(&mut self, message: String) {
+        self.out.warnings.push(message);
+    }
+
+    fn materials(&mut self) -> Result<(), String> {
+        let doc = self.doc;
+        for material in doc.materials() {
+            let i = material.index().unwrap_or(0);
+            let what = format!("material {i}");
+            let name = material.name().map_or_else(|| what.clone(), str::to_string);
+            let pbr = material.pbr_metallic_roughness();
+            let [r, g, b, _] = pbr.base_color_factor();
+            let factor = Vec3::new(r, g, b);
+            let base = match pbr.base_color_texture() {
+                Some(info) => self.texture(&info, factor, &what)?,
+                None => Texture::Constant(factor),
+            };
+            if pbr.metallic_roughness_texture().is_some() {
+                self.warn(format!("{what}: metallicRoughnessTexture ignored (its factors are used)"));
+            }
+            if material.normal_texture().is_some() {
+                self.warn(format!("{what}: normalTexture ignored"));
+            }
+            if material.emissive_texture().is_some() {
+                self.warn(format!("{what}: emissiveTexture ignored (emissiveFactor is used)"));
+            }
+            if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
+                self.warn(format!("{what}: alphaMode {:?} ignored (surfaces are opaque)", material.alpha_mode()));
+            }
+            let transmission = material.transmission().map_or(0.0, |t| t.transmission_factor());
+            if material.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
+                self.warn(format!("{what}: transmissionTexture ignored (transmissionFactor is used)"));
+            }
+            let [er, eg, eb] = material.emissive_factor();
+            let emission = Vec3::new(er, eg, eb) * material.emissive_strength().unwrap_or(1.0);
+            let numbers = Pbr {
+                base_factor: factor.clamp(Vec3::ZERO, Vec3::ONE),
+                metallic: pbr.metallic_factor(),
+                roughness: pbr.roughness_factor(),
+                transmission,
+                ior: material.ior().unwrap_or(1.5),
+                emission,
+            };
+            let m = material_of(name, base, &numbers);
+            if let Some(problem) = m.problem() {
+                return Err(format!("{what}: {problem}"));
+            }
+            self.out.materials.push(m);
+        }
+        Ok(())
+    }
+
+    /// A base-colour texture (`factor` × image), its image decoded once per file.
+    fn texture(&mut self, info: &gltf::texture::Info, factor: Vec3, what: &str) -> Result<Texture, String> {
+        let texture = info.texture();
+        if info.tex_coord() != 0 {
+            self.warn(format!(
+                "{what}: texture {} uses TEXCOORD_{}; TEXCOORD_0 is used",
+                texture.index(),
+                info.tex_coord()
+            ));
+        }
+        let image = texture.source();
+        let index = image.index();
+        let decoded = match self.images.get(&index) {
+            Some(decoded) => decoded.clone(),
+            None => {
+                let decoded = self
+                    .image(&image)
+                    .map_err(|e| format!("{what}: texture {}: image {index}: {e}", texture.index()))?;
+                self.images.insert(index, decoded.clone());
+                decoded
+            }
+        };
+        let wrap = |mode| match mode {
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        };
+        let sampler = texture.sampler();
+        Ok(Texture::Image(ImageTexture {
+            image: decoded,
+            wrap_u: wrap(sampler.wrap_s()),
+            wrap_v: wrap(sampler.wrap_t()),
+            factor,
+        }))
+    }
+
+    fn image(&mut self, image: &gltf::Image) -> Result<Arc<Image>, String> {
+        match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let bytes = self.view_bytes(&view)?;
+                Ok(Arc::new(Image::decode(bytes, &format!("buffer view {}", view.index()))?))
+            }
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
+                let bytes = read_uri(uri, self.base, &mut Vec::new())?;
+                Ok(Arc::new(Image::decode(&bytes, "its data: URI")?))
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                let decoded =
+                    urlencoding::decode(uri).map_err(|_| format!("URI {uri:?} is not valid percent-encoding"))?;
+                let file = self.base.join(decoded.as_ref());
+                if !file.is_file() {
+                    return Err(format!("{}: no such file", file.display()));
+                }
+                let image = open_shared(&file)?;
+                self.out.files.push(file);
+                Ok(image)
+            }
+        }
+    }
+
+    fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8], String> {
+        let buffer = &self.buffers[view.buffer().index()];
+        let (start, length) = (view.offset(), view.length());
+        start.checked_add(length).and_then(|end| buffer.get(start..end)).ok_or_else(|| {
+            format!(
+                "buffer view {}: bytes {start}..+{length} lie outside buffer {} ({} bytes)",
+                view.index(),
+                view.buffer().index(),
+                buffer.len()
+            )
+        })
+    }
+
+    /// Checks that accessor `a` can be read as `count` elements of the given types from its
+    /// buffer view: its bytes inside the view, the view inside its buffer.
+    fn check_accessor(
+        &self,
+        a: &gltf::Accessor,
+        types: &[DataType],
+        dims: &[Dimensions],
+        what: &str,
+    ) -> Result<(), String> {
+        let name = format!("accessor {}", a.index());
+        if !types.contains(&a.data_type()) || !dims.contains(&a.dimensions()) {
+            return Err(format!(
+                "{name} ({what}): {:?} {:?} is not a type strahl reads for it",
+                a.dimensions(),
+                a.data_type()
+            ));
+        }
+        if a.sparse().is_some() {
+            return Err(format!("{name} ({what}): sparse accessors are not supported"));
+        }
+        let Some(view) = a.view() else {
+            return Err(format!("{name} ({what}): has no bufferView (all-zero accessors are not supported)"));
+        };
+        let view_bytes = self.view_bytes(&view)?;
+        let element = a.size();
+        let stride = view.stride().unwrap_or(element);
+        if a.count() == 0 {
+            return Ok(());
+        }
+        let needed = (a.count() - 1)
+            .checked_mul(stride)
+            .and_then(|n| n.checked_add(element))
+            .and_then(|n| n.checked_add(a.offset()));
+        match needed {
+            Some(n) if n <= view_bytes.len() => Ok(()),
+            _ => Err(format!(
+                "{name} ({what}): {} elements of {element} bytes (stride {stride}) from byte {} need more than the {} bytes of buffer view {}",
+                a.count(),
+                a.offset(),
+                view_bytes.len(),
+                view.index()
+            )),
+        }
+    }
+
+    fn node(
+        &mut self,
+        node: &gltf::Node,
+        parent: &Transform,
+        depth: usize,
+        meshes: &mut [Option<Mesh>],
+    ) -> Result<(), String> {
+        let what = format!("node {}", node.index());
+        if depth > MAX_NODE_DEPTH {
+            return Err(format!("{what}: the node hierarchy is deeper than {MAX_NODE_DEPTH} (a cycle?)"));
+        }
+        let local = match node.transform() {
+            gltf::scene::Transform::Matrix { matrix } => DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from))),
+            gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
+                let [x, y, z, w] = rotation.map(f64::from);
+                let q = DQuat::from_xyzw(x, y, z, w);
+                let q = if q.length() > 0.0 { q.normalize() } else { q };
+                DMat4::from_scale_rotation_translation(
+                    DVec3::from(scale.map(f64::from)),
+                    q,
+                    DVec3::from(translation.map(f64::from)),
+                )
+            }
+        };
+        let local = match Transform::from_matrix(local) {
+            Ok(t) => t,
+            Err(problem) => {
+                self.warn(format!("{what}: skipped with its children: {problem}"));
+                return Ok(());
+            }
+        };
+        let world = local.then(parent);
+        if let Some(mesh) = node.mesh() {
+            let index = mesh.index();
+            if meshes[index].is_none() {
+                meshes[index] = Some(self.mesh(&mesh)?);
+            }
+            if meshes[index].as_ref().is_some_and(|m| !m.indices.is_empty()) {
+                self.out.nodes.push(MeshNode { node: node.index(), mesh: index, transform: world });
+            }
+        }
+        if let Some(camera) = node.camera() {
+            self.camera(&camera, node, &world);
+        }
+        if let Some(light) = node.light() {
+            self.light(&light, &world, &what)?;
+        }
+        for child in node.children() {
+            self.node(&child, &world, depth + 1, meshes)?;
+        }
+        Ok(())
+    }
+
+    fn camera(&mut self, camera: &gltf::Camera, node: &gltf::Node, world: &Transform) {
+        let gltf::camera::Projection::Perspective(p) = camera.projection() else {
+            self.warn(format!("camera {}: orthographic cameras are not supported; skipped", camera.index()));
+            return;
+        };
+        let eye = world.point_f64(DVec3::ZERO);
+        let forward = world.vector_f64(-DVec3::Z).normalize();
+        let up = world.vector_f64(DVec3::Y).normalize();
+        let spec = CameraSpec {
+            eye: eye.as_vec3(),
+            target: (eye + forward).as_vec3(),
+            up: up.as_vec3(),
+            fov_deg: p.yfov().to_degrees(),
+            lens: Default::default(),
+        };
+        let name = camera.name().or(node.name()).map(str::to_string);
+        self.out.cameras.push(GltfCamera { index: camera.index(), name, spec, aspect_ratio: p.aspect_ratio() });
+    }
+
+    fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: &Transform, what: &str) -> Result<(), String> {
+        use gltf::khr_lights_punctual::Kind;
+        let colour = Vec3::from(light.color()) * light.intensity();
+        let position = world.point_f64(DVec3::ZERO).as_vec3();
+        let l = match light.kind() {
+            Kind::Point => Light::Point { position, intensity: colour },
+            Kind::Spot { .. } => {
+                self.warn(format!(
+                    "light {}: a spot light is rendered as a point light (its cone is ignored)",
+                    light.index()
+                ));
+                Light::Point { position, intensity: colour }
+            }
+            Kind::Directional => {
+                let direction = world.vector_f64(-DVec3::Z).normalize().as_vec3();
+                Light::Directional { direction, irradiance: colour }
+            }
+        };
+        if let Some(problem) = l.problem() {
+            return Err(format!("{what}: light {}: {problem}", light.index()));
+        }
+        self.out.lights.push(l);
+        Ok(())
+    }
+
+    /// Glue all triangle primitives of `mesh` into one strahl mesh.
+    fn mesh(&mut self, mesh: &gltf::Mesh) -> Result<Mesh, String> {
+        let mut out = Mesh {
+            name: mesh.name().map_or_else(|| format!("mesh {}", mesh.index()), str::to_string),
+            ..Mesh::default()
+        };
+        let (mut normals, mut colors, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut any_normals, mut any_colors, mut any_uvs) = (false, false, false);
+        let mut materials = Vec::new();
+        for primitive in mesh.primitives() {
+            let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
+            if primitive.mode() != Mode::Triangles {
+                self.warn(format!("{what}: mode {:?} is not triangles; skipped", primitive.mode()));
+                continue;
+            }
+            let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
+                self.warn(format!("{what}: has no POSITION; skipped"));
+                continue;
+            };
+            let f32v3 = (&[DataType::F32][..], &[Dimensions::Vec3][..]);
+            self.check_accessor(&positions, f32v3.0, f32v3.1, &format!("{what} POSITION"))?;
+            let buffers = self.buffers;
+            let reader = primitive.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+            let first = out.positions.len();
+            let p: Vec<Vec3> = reader.read_positions().into_iter().flatten().map(Vec3::from).collect();
+            let n = p.len();
+            out.positions.extend(p);
+            if let Some(a) = primitive.get(&gltf::Semantic::Normals) {
+                self.check_accessor(&a, f32v3.0, f32v3.1, &format!("{what} NORMAL"))?;
+                if a.count() != n {
+                    return Err(format!("{what}: NORMAL has {} elements for {n} positions", a.count()));
+                }
+                normals.extend(reader.read_normals().into_iter().flatten().map(|v| Vec3::from(v).normalize_or_zero()));
+                any_normals = true;
+            } else {
+                normals.extend(std::iter::repeat_n(Vec3::ZERO, n));
+            }
+            if let Some(a) = primitive.get(&gltf::Semantic::Colors(0)) {
+                let types = [DataType::F32, DataType::U8, DataType::U16];
+                self.check_accessor(&a, &types, &[Dimensions::Vec3, Dimensions::Vec4], &format!("{what} COLOR_0"))?;
+                if a.count() != n {
+                    return Err(format!("{what}: COLOR_0 has {} elements for {n} positions", a.count()));
+                }
+                colors.extend(reader.read_colors(0).into_iter().flat_map(|c| c.into_rgb_f32()).map(Vec3::from));
+                any_colors = true;
+            } else {
+                colors.extend(std::iter::repeat_n(Vec3::ONE, n));
+            }
+            if let Some(a) = primitive.get(&gltf::Semantic::TexCoords(0)) {
+                let types = [DataType::F32, DataType::U8, DataType::U16];
+                self.check_accessor(&a, &types, &[Dimensions::Vec2], &format!("{what} TEXCOORD_0"))?;
+                if a.count() != n {
+                    return Err(format!("{what}: TEXCOORD_0 has {} elements for {n} positions", a.count()));
+                }
+                // glTF's (0, 0) is the image's top-left; strahl's (OBJ's) its bottom-left.
+                uvs.extend(
+                    reader
+                        .read_tex_coords(0)
+                        .into_iter()
+                        .flat_map(|t| t.into_f32())
+                        .map(|[u, v]| Vec2::new(u, 1.0 - v)),
+                );
+                any_uvs = true;
+            } else {
+                uvs.extend(std::iter::repeat_n(Vec2::ZERO, n));
+            }
+            let triangles_before = out.indices.len();
+            match primitive.indices() {
+                Some(a) => {
+                    self.check_accessor(
+                        &a,
+                        &[DataType::U8, DataType::U16, DataType::U32],
+                        &[Dimensions::Scalar],
+                        &format!("{what} indices"),
+                    )?;
+                    if a.count() % 3 != 0 {
+                        return Err(format!(
+                            "accessor {} ({what} indices): {} indices are not whole triangles",
+                            a.index(),
+                            a.count()
+                        ));
+                    }
+                    let idx: Vec<u32> = reader.read_indices().into_iter().flat_map(|i| i.into_u32()).collect();
+                    if let Some(bad) = idx.iter().position(|&i| i as usize >= n) {
+                        return Err(format!(
+                            "accessor {} ({what} indices): index {bad} is {}, out of range for {n} vertices",
+                            a.index(),
+                            idx[bad]
+                        ));
+                    }
+                    let base = first as u32;
+                    out.indices.extend(idx.chunks_exact(3).map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+                }
+                None => {
+                    if n % 3 != 0 {
+                        return Err(format!("{what}: {n} vertices without indices are not whole triangles"));
+                    }
+                    out.indices.extend((first..first + n).step_by(3).map(|i| [i as u32, i as u32 + 1, i as u32 + 2]));
+                }
+            }
+            let material = primitive.material().index().map_or(u32::MAX, |i| i as u32);
+            materials.extend(std::iter::repeat_n(material, out.indices.len() - triangles_before));
+        }
+        if let Some(problem) = crate::scene::mesh::triangles_problem(&out.positions, &out.indices) {
+            return Err(format!("mesh {}: {problem}", mesh.index()));
+        }
+        if materials.contains(&u32::MAX) {
+            let id = self.out.materials.iter().position(|m| m.name == "gltf default").unwrap_or_else(|| {
+                self.out.materials.push(default_material());
+                self.out.materials.len() - 1
+            }) as u32;
+            materials.iter_mut().filter(|m| **m == u32::MAX).for_each(|m| *m = id);
+        }
+        out.normals = any_normals.then_some(normals);
+        out.colors = any_colors.then_some(colors);
+        out.uvs = any_uvs.then_some(uvs);
+        match materials.first() {
+            Some(&first) if materials.iter().all(|&m| m == first) => out.material = first,
+            Some(_) => out.triangle_materials = Some(materials),
+            None => {}
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_paths_name_the_element() {
+        assert_eq!(element_of_path("accessors[3].count"), "accessor 3: count");
+        assert_eq!(element_of_path("meshes[0]"), "mesh 0");
+    }
+
+    #[test]
+    fn roughness_to_shininess() {
+        assert_eq!(shininess_of_roughness(1.0), 0.0);
+        assert_eq!(shininess_of_roughness(0.5), 30.0);
+        assert_eq!(shininess_of_roughness(0.0), 1e4);
+    }
+}
