@@ -12,6 +12,7 @@ pub mod checkpoint;
 pub mod crosscheck;
 pub mod cryptomatte;
 pub mod embree;
+pub mod farm;
 pub mod film;
 pub mod geometry;
 pub mod ids;
