@@ -272,7 +272,7 @@ pub fn time_problem(t: &str) -> Option<&'static str> {
 
 /// `s` as one POSIX shell word: single quotes, a `'` as `'\''`, and the pair `\r\n` split
 /// as `\r''\n` (sbatch refuses a script holding it).
-pub fn shell_word(s: &str) -> String {
+fn shell_word(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''").replace("\r\n", "\r''\n"))
 }
 
