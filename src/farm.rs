@@ -32,7 +32,7 @@
 //! **Recovery.** Both jobs append to their logs (`--open-mode=append`), so a requeued task's
 //! log keeps the `interrupted: N of M tiles saved` line of its first run. The merge depends on
 //! the array with `afterany`: it runs once every task has ended, whatever their end, and
-//! refuses an incomplete cover naming the missing rows, instead of waiting forever
+//! refuses a missing or incomplete tile naming it, instead of waiting forever
 //! (`DependencyNeverSatisfied`) as `afterok` does after a failed task.
 
 use std::ffi::{OsStr, OsString};

@@ -6,7 +6,7 @@
 # submits `strahl farm slurm` for an 8-tile render into a folder whose name holds quotes, a
 # space, '#', '%A' and '$( )', waits by polling squeue/sacct, compares the merged EXR with a
 # single-process render byte for byte, and checks the logs are named as meant and nothing
-# ran. Every daemon it started is stopped by PID on every exit path. Needs root (it writes
+# ran; then makes a task fail, and finishes the frame as the README says (task and merge again). Every daemon it started is stopped by PID on every exit path. Needs root (it writes
 # /etc/munge and starts daemons).
 #
 # Exit status: 0 passed or skipped (said loudly: not root, or no apt-get to install Slurm), 1 failed.
@@ -144,11 +144,14 @@ log "submitted array $array and merge $merge"
 
 # 6. Wait: poll squeue until neither job is queued or running, then ask sacct (when
 # accounting is off it knows nothing, so the merged file decides).
-for _ in $(seq 1200); do
-  [ -z "$(squeue -h -j "$array,$merge" 2>/dev/null)" ] && break
-  sleep 0.1
-done
-[ -z "$(squeue -h -j "$array,$merge" 2>/dev/null)" ] || fail "the jobs did not finish in 120 s"
+wait_for() {
+  for _ in $(seq 1200); do
+    [ -z "$(squeue -h -j "$1" 2>/dev/null)" ] && return 0
+    sleep 0.1
+  done
+  fail "the jobs $1 did not finish in 120 s"
+}
+wait_for "$array,$merge"
 sacct -n -j "$array,$merge" -o JobID,State 2>/dev/null | grep -E 'FAILED|CANCELLED|TIMEOUT' && fail "a job failed"
 [ -f "$OUT/farm.exr" ] || { cat "$OUT/farm.exr.farm/"*.log >&2 2>/dev/null; fail "no merged image"; }
 
@@ -159,5 +162,22 @@ for f in "render-${array}_1.log" "render-${array}_8.log" "merge-$merge.log"; do
 done
 pwned=$(find "$WORK" "$ROOT" -name PWNED 2>/dev/null | head -1)
 [ -z "$pwned" ] || fail "a path ran as a command: $pwned"
-log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s in all)"
-echo "1 passed, 0 failed"
+log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s)"
+
+# 8. After a failed task (tile 3's path is a folder), the merge still runs (afterany) and
+# refuses, naming the tile; the README's two commands then finish the same frame.
+R=$WORK/out/recover
+mkdir -p "$R/frame.exr.farm/tile-3.exr"
+ids=$("$STRAHL" farm slurm "$SCENE" -o "$R/frame.exr" --tiles 4 --cpus 1 --submit -- "${RENDER[@]}" | tail -1) \
+  || fail "strahl farm slurm --submit failed"
+read -r array merge <<<"$ids"
+wait_for "$array,$merge"
+[ ! -e "$R/frame.exr" ] || fail "merged although task 3 failed"
+grep -q "tile-3.exr" "$R/frame.exr.farm/merge-$merge.log" || { cat "$R/frame.exr.farm/merge-$merge.log" >&2; fail "the merge's log does not name tile 3"; }
+rmdir "$R/frame.exr.farm/tile-3.exr"
+id=$(sbatch --parsable --array=3 "$R/frame.exr.farm/render.sbatch") || fail "cannot resubmit task 3"
+merge=$(sbatch --parsable --dependency=afterany:"$id" "$R/frame.exr.farm/merge.sbatch") || fail "cannot resubmit the merge"
+wait_for "$id,$merge"
+cmp "$WORK/out/single.exr" "$R/frame.exr" || fail "the frame finished after a failed task differs from the single-process render"
+log "after a failed task, resubmitting it and the merge gave the same frame ($(seconds) s in all)"
+echo "2 passed, 0 failed"
