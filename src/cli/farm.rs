@@ -10,12 +10,14 @@
 //! `--region`, `--resume`, `--confine`, a second scene), when every tile would write the same
 //! file (`--png`), when `--threads` is given (each task runs `--cpus` threads), or when they
 //! are invalid. The scene is loaded with them, so that a scene every task would refuse is
-//! refused here, and `N` is at most the image's height (a tile is at least one row). Paths are
+//! refused here, `N` is at most the image's height (a tile is at least one row), and a tile
+//! must fit an explicit `--max-memory`. Paths are
 //! made absolute, since the jobs run wherever Slurm starts them.
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Duration;
 
 use anyhow::{Context, bail};
 use clap::parser::ValueSource;
@@ -158,16 +160,43 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     let mut loaded = super::load_scene_with_camera(scene, camera)?;
     let get = |id: &str| m.get_one::<u32>(id).copied();
     super::override_image(scene, &mut loaded.scene.image, [get("width"), get("height"), get("spp"), get("depth")])?;
+    let scene_data = &mut loaded.scene;
     if let Some(passes) = m.get_many::<String>("passes") {
-        super::parse_passes(&passes.cloned().collect::<Vec<_>>())?;
+        scene_data.output.passes = super::parse_passes(&passes.cloned().collect::<Vec<_>>())?;
     }
-    let height = loaded.scene.image.height;
+    scene_data.output.transparent |= m.get_flag("transparent");
+    if let Some(&levels) = m.get_one::<u32>("cryptomatte_levels") {
+        scene_data.output.crypto_levels = levels;
+    }
+    if let Some(&ev) = m.get_one::<f32>("exposure") {
+        if !ev.is_finite() {
+            bail!("-- --exposure {ev} is not a finite number of stops");
+        }
+    }
+    if let Some(&every) = m.get_one::<f64>("checkpoint_every") {
+        if Duration::try_from_secs_f64(every).is_err() {
+            bail!("-- --checkpoint-every {every} is not a number of seconds (0 or more)");
+        }
+    }
+    let (width, height) = (scene_data.image.width, scene_data.image.height);
     if a.tiles > height {
         bail!(
             "{}: --tiles {} is more than the image's {height} rows (a tile is at least one row)",
             a.scene.display(),
             a.tiles
         );
+    }
+    // An explicit budget is the same on every node (the default is each node's own memory).
+    if let Some(&limit) = m.get_one::<u64>("max_memory") {
+        let rows = height.div_ceil(a.tiles) as u64;
+        let needs = strahl::memory::estimate(scene_data, rows * width as u64);
+        if needs.total() > limit {
+            bail!(
+                "{}: a tile needs about {needs}, more than -- --max-memory {}: use more tiles or raise it",
+                a.scene.display(),
+                strahl::memory::megabytes(limit)
+            );
+        }
     }
     if let Some(dir) = confine {
         for input in strahl::io::read::inputs_read() {
