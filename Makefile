@@ -135,11 +135,11 @@ scale: build
 # STRAHL_TEST_DATA) and a pygltflib-written glTF. A crash, hang or OOM leaves its input in
 # fuzz/artifacts/TARGET/ and stops with a non-zero status; make it a regression test.
 FUZZ_SECONDS ?= 600
-FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon
+FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script
 FUZZ_DATA := $(or $(STRAHL_TEST_DATA),../shared/data)/meshes
 fuzz:
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
-	@mkdir -p $(addprefix fuzz/corpus/,scene_toml obj_mtl ply gltf polygon)
+	@mkdir -p $(addprefix fuzz/corpus/,$(FUZZ_TARGETS))
 	@cp scenes/*.toml fuzz/corpus/scene_toml/
 	@if [ -d "$(FUZZ_DATA)" ]; then \
 	  find "$(FUZZ_DATA)" -size -1000k \( -name '*.obj' -o -name '*.mtl' \) | while read -r f; do cp "$$f" "fuzz/corpus/obj_mtl/$$(echo "$$f" | md5sum | cut -c1-16)"; done; \

@@ -12,6 +12,7 @@
 
 pub mod accel;
 pub mod camera;
+pub mod farm;
 pub mod geometry;
 pub mod integrator;
 pub mod job;

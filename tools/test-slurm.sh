@@ -3,9 +3,11 @@
 #
 # Installs Debian's slurmctld slurmd slurm-client munge when missing, starts munged,
 # slurmctld and slurmd without systemd (loopback only, state under a private directory),
-# submits `strahl farm slurm` for an 8-tile render, waits by polling squeue/sacct, and compares
-# the merged EXR with a single-process render byte for byte. Every daemon it started is stopped
-# by PID on every exit path. Needs root (it writes /etc/munge and starts daemons).
+# submits `strahl farm slurm` for an 8-tile render into a folder whose name holds quotes, a
+# space, '#', '%A' and '$( )', waits by polling squeue/sacct, compares the merged EXR with a
+# single-process render byte for byte, and checks the logs are named as meant and nothing
+# ran; then makes a task fail, and finishes the frame as the README says (task and merge again). Every daemon it started is stopped by PID on every exit path. Needs root (it writes
+# /etc/munge and starts daemons).
 #
 # Exit status: 0 passed or skipped (said loudly: not root, or no apt-get to install Slurm), 1 failed.
 # Prints "N passed, N failed" at the end. STRAHL=path/to/strahl (default: target/release/strahl,
@@ -125,27 +127,57 @@ done
 [ "$state" = idle ] || { tail -5 "$WORK/log/slurmctld.log" >&2; fail "the node is '$state', not idle"; }
 log "cluster up after $(seconds) s"
 
-# 5. The render: 8 tiles on Slurm, and one process here, with fixed dates.
+# 5. The render: 8 tiles on Slurm, and one process here, with fixed dates. The farm's folder
+# has a space, quotes, a '#', Slurm's '%A' and a '$( )' in its name: sbatch must read the
+# quoted #SBATCH --output lines as meant, and nothing may run.
 export SOURCE_DATE_EPOCH=1700000000
 SCENE=$ROOT/scenes/cornell.toml
 RENDER=(--width 96 --height 72 --spp 2 --passes all)
+OUT="$WORK/out/it's a \"farm\" #1 50%A \$(touch PWNED)"
+mkdir -p "$OUT"
+cd "$WORK" || fail "no $WORK"
 "$STRAHL" render "$SCENE" -o "$WORK/out/single.exr" "${RENDER[@]}" --threads 2 >/dev/null 2>&1 || fail "the single render failed"
-ids=$("$STRAHL" farm slurm "$SCENE" -o "$WORK/out/farm.exr" --tiles 8 --cpus 1 --submit -- "${RENDER[@]}" | tail -1) \
+ids=$("$STRAHL" farm slurm "$SCENE" -o "$OUT/farm.exr" --tiles 8 --cpus 1 --submit -- "${RENDER[@]}" | tail -1) \
   || fail "strahl farm slurm --submit failed"
 read -r array merge <<<"$ids"
 log "submitted array $array and merge $merge"
 
 # 6. Wait: poll squeue until neither job is queued or running, then ask sacct (when
 # accounting is off it knows nothing, so the merged file decides).
-for _ in $(seq 1200); do
-  [ -z "$(squeue -h -j "$array,$merge" 2>/dev/null)" ] && break
-  sleep 0.1
-done
-[ -z "$(squeue -h -j "$array,$merge" 2>/dev/null)" ] || fail "the jobs did not finish in 120 s"
+wait_for() {
+  for _ in $(seq 1200); do
+    [ -z "$(squeue -h -j "$1" 2>/dev/null)" ] && return 0
+    sleep 0.1
+  done
+  fail "the jobs $1 did not finish in 120 s"
+}
+wait_for "$array,$merge"
 sacct -n -j "$array,$merge" -o JobID,State 2>/dev/null | grep -E 'FAILED|CANCELLED|TIMEOUT' && fail "a job failed"
-[ -f "$WORK/out/farm.exr" ] || { cat "$WORK/out/farm.exr.farm/"*.log >&2 2>/dev/null; fail "no merged image"; }
+[ -f "$OUT/farm.exr" ] || { cat "$OUT/farm.exr.farm/"*.log >&2 2>/dev/null; fail "no merged image"; }
 
-# 7. Compare.
-cmp "$WORK/out/single.exr" "$WORK/out/farm.exr" || fail "the merged EXR differs from the single-process render"
-log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s in all)"
-echo "1 passed, 0 failed"
+# 7. Compare; the logs are where the #SBATCH lines name them, and nothing ran.
+cmp "$WORK/out/single.exr" "$OUT/farm.exr" || fail "the merged EXR differs from the single-process render"
+for f in "render-${array}_1.log" "render-${array}_8.log" "merge-$merge.log"; do
+  [ -f "$OUT/farm.exr.farm/$f" ] || { ls -la "$OUT/farm.exr.farm" >&2; fail "no log $f in the farm's folder"; }
+done
+pwned=$(find "$WORK" "$ROOT" -name PWNED 2>/dev/null | head -1)
+[ -z "$pwned" ] || fail "a path ran as a command: $pwned"
+log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s)"
+
+# 8. After a failed task (tile 3's path is a folder), the merge still runs (afterany) and
+# refuses, naming the tile; the README's two commands then finish the same frame.
+R=$WORK/out/recover
+mkdir -p "$R/frame.exr.farm/tile-3.exr"
+ids=$("$STRAHL" farm slurm "$SCENE" -o "$R/frame.exr" --tiles 4 --cpus 1 --submit -- "${RENDER[@]}" | tail -1) \
+  || fail "strahl farm slurm --submit failed"
+read -r array merge <<<"$ids"
+wait_for "$array,$merge"
+[ ! -e "$R/frame.exr" ] || fail "merged although task 3 failed"
+grep -q "tile-3.exr" "$R/frame.exr.farm/merge-$merge.log" || { cat "$R/frame.exr.farm/merge-$merge.log" >&2; fail "the merge's log does not name tile 3"; }
+rmdir "$R/frame.exr.farm/tile-3.exr"
+id=$(sbatch --parsable --array=3 "$R/frame.exr.farm/render.sbatch") || fail "cannot resubmit task 3"
+merge=$(sbatch --parsable --dependency=afterany:"$id" "$R/frame.exr.farm/merge.sbatch") || fail "cannot resubmit the merge"
+wait_for "$id,$merge"
+cmp "$WORK/out/single.exr" "$R/frame.exr" || fail "the frame finished after a failed task differs from the single-process render"
+log "after a failed task, resubmitting it and the merge gave the same frame ($(seconds) s in all)"
+echo "2 passed, 0 failed"

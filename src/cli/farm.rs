@@ -1,21 +1,29 @@
-//! `strahl farm slurm SCENE -o OUT.exr --tiles N [--partition P] [--time T] [--submit]
-//! [-- RENDER OPTIONS…]`: writes a Slurm job array of `N` region renders
-//! (`strahl render … --tile I/N --resume`, task `I` of the array) and a merge job that runs
-//! once every task has succeeded (`--dependency=afterok`), and with `--submit` submits both.
+//! `strahl farm slurm SCENE -o OUT.exr --tiles N [--partition P] [--time T] [--cpus C]
+//! [--strahl PATH] [--confine DIR] [--submit] [-- RENDER OPTIONS…]`: writes a Slurm job array
+//! of `N` tile renders and a merge job into `OUT.exr.farm/` ([`strahl::farm`] writes the
+//! scripts and states how every value reaches the jobs unchanged), and with `--submit`
+//! submits both, the merge after the array (`--dependency=afterany`).
 //!
-//! The rule: every task renders `--tile $SLURM_ARRAY_TASK_ID/N` into `DIR/tile-I.exr` with
-//! `--resume` and `exec` (so a preempted, requeued task receives SIGTERM itself, saves its
-//! checkpoint and continues from it), `DIR` being `OUT.exr.farm/`; the merge job runs
-//! `strahl merge OUT.exr DIR/tile-1.exr … DIR/tile-N.exr`. Paths are made absolute, since
-//! the jobs run wherever Slurm starts them. Other farms drive the same two commands (README,
-//! "Rendering on a farm").
+//! The rule: whatever every task would refuse is refused here, before anything is written
+//! (no `OUT.exr.farm/` is left by a refusal). The render options are parsed by `strahl
+//! render`'s own parser, and refused when they set what the jobs set (`-o`, `--tile`,
+//! `--region`, `--resume`, `--confine`, a second scene), when every tile would write the same
+//! file (`--png`), when `--threads` is given (each task runs `--cpus` threads), or when they
+//! are invalid. The scene is loaded with them, so that a scene every task would refuse is
+//! refused here, `N` is at most the image's height (a tile is at least one row), and a tile
+//! must fit an explicit `--max-memory`. Paths are
+//! made absolute, since the jobs run wherever Slurm starts them.
 
-use std::fmt::Write as _;
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Duration;
 
 use anyhow::{Context, bail};
-use clap::{Args, Subcommand};
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Args, Subcommand};
+use strahl::farm::{MAX_TILES, Scripts, SlurmJob};
+use strahl::scene::load::MeshFormat;
 
 /// Arguments of `strahl farm`.
 #[derive(Args, Debug)]
@@ -38,8 +46,8 @@ pub struct SlurmArgs {
     /// The merged OpenEXR image the jobs produce.
     #[arg(short, long, value_name = "OUT.exr")]
     output: PathBuf,
-    /// Number of tiles (array tasks), each `--tile I/N`.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    /// Number of tiles (array tasks), each `--tile I/N`: at most the image height and 10000.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_TILES as i64))]
     tiles: u32,
     /// Slurm partition for both jobs.
     #[arg(long, value_name = "P")]
@@ -53,27 +61,21 @@ pub struct SlurmArgs {
     /// The strahl the nodes run [default: this one, by its absolute path].
     #[arg(long, value_name = "PATH")]
     strahl: Option<PathBuf>,
+    /// Every task renders with `--confine DIR`: reads no file outside DIR.
+    #[arg(long, value_name = "DIR")]
+    confine: Option<PathBuf>,
     /// Submit the jobs with sbatch (otherwise only write the scripts and print how to submit).
     #[arg(long)]
     submit: bool,
     /// Further `strahl render` options for every tile, after `--` (e.g. `-- --spp 16`).
     #[arg(last = true, value_name = "RENDER OPTIONS")]
-    render: Vec<String>,
+    render: Vec<OsString>,
 }
 
 pub fn run(args: FarmArgs) -> anyhow::Result<()> {
     match args.scheduler {
         Scheduler::Slurm(a) => slurm(a),
     }
-}
-
-/// `s` quoted for a POSIX shell.
-fn quote(s: &str) -> String {
-    format!("'{}'", s.replace('\'', "'\\''"))
-}
-
-fn shell_path(p: &Path) -> anyhow::Result<String> {
-    p.to_str().map(quote).with_context(|| format!("{}: is not UTF-8, which the job scripts need", p.display()))
 }
 
 /// `path` made absolute without requiring it to exist (its directory must).
@@ -86,6 +88,127 @@ fn absolute(path: &Path, what: &str) -> anyhow::Result<PathBuf> {
     Ok(dir.join(name))
 }
 
+/// The render options the jobs set themselves (or that no tile may set), and why.
+const SET_BY_THE_JOBS: [(&str, &str); 7] = [
+    ("scene", "name a scene: farm slurm's SCENE is every task's"),
+    ("output", "set -o/--output: each task writes its tile into OUT.exr.farm/"),
+    ("tile", "set --tile: each task renders its own"),
+    ("region", "set --region: the tasks render tiles"),
+    ("resume", "set --resume: every task resumes already"),
+    ("confine", "set --confine: give it to farm slurm (--confine DIR)"),
+    ("png", "set --png: every tile would write the same PNG"),
+];
+
+/// One line of a clap error, without its `error: ` prefix and usage.
+fn clap_message(e: &clap::Error) -> String {
+    use clap::error::ErrorKind;
+    if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+        return "asks for help or the version".into();
+    }
+    let rendered = e.render().to_string();
+    let first = rendered.split("\n\n").next().unwrap_or_default();
+    let words: Vec<&str> = first.split_whitespace().collect();
+    words.join(" ").trim_start_matches("error: ").to_string()
+}
+
+/// The render options parsed by `strahl render`'s own parser, refused as the module docs say.
+fn parse_render_options(a: &SlurmArgs) -> anyhow::Result<ArgMatches> {
+    let command = || super::render::RenderArgs::augment_args(clap::Command::new("render").no_binary_name(true));
+    let alone = command().mut_arg("scene", |s| s.required(false)).mut_arg("output", |o| o.required(false));
+    let m = alone
+        .try_get_matches_from(&a.render)
+        .map_err(|e| anyhow::anyhow!("the render options after --: {}", clap_message(&e)))?;
+    let given = |id: &str| m.ids().any(|i| i == id) && m.value_source(id) == Some(ValueSource::CommandLine);
+    for (id, why) in SET_BY_THE_JOBS {
+        if given(id) {
+            bail!("the render options after -- must not {why}");
+        }
+    }
+    if let Some(&t) = m.get_one::<u32>("threads") {
+        match a.cpus {
+            Some(c) if c == t => bail!("-- --threads {t}: the tasks already run --cpus {c} threads; leave it out"),
+            Some(c) => bail!(
+                "-- --threads {t} disagrees with --cpus {c}: each task gets {c} CPUs and runs as many threads; leave --threads out"
+            ),
+            None => bail!("-- --threads {t}: Slurm gives a task one CPU unless told: give --cpus {t} instead"),
+        }
+    }
+    Ok(m)
+}
+
+/// The command line every task runs, parsed by `strahl render`'s parser (tile 1): what the
+/// checks above did not foresee fails here rather than in every task.
+fn parse_task(a: &SlurmArgs, job: &SlurmJob, scripts: &Scripts) -> anyhow::Result<()> {
+    let command = super::render::RenderArgs::augment_args(clap::Command::new("render").no_binary_name(true));
+    let mut argv: Vec<OsString> = vec![job.scene.clone().into(), "-o".into(), scripts.folder.join("tile-1.exr").into()];
+    argv.extend(["--tile".into(), format!("1/{}", job.tiles).into(), "--resume".into()]);
+    if let Some(c) = job.cpus {
+        argv.extend(["--threads".into(), c.to_string().into()]);
+    }
+    if let Some(d) = &job.confine {
+        argv.extend(["--confine".into(), d.clone().into()]);
+    }
+    argv.extend(a.render.iter().cloned());
+    command.try_get_matches_from(argv).map_err(|e| anyhow::anyhow!("a task's render command: {}", clap_message(&e)))?;
+    Ok(())
+}
+
+/// Loads the scene as every task will (camera, image overrides, passes) and checks the tiles
+/// against its height and the files it reads against `--confine`.
+fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatches) -> anyhow::Result<()> {
+    let camera = m.get_one::<String>("camera").map(String::as_str);
+    let mut loaded = super::load_scene_with_camera(scene, camera)?;
+    let get = |id: &str| m.get_one::<u32>(id).copied();
+    strahl::job::override_image(scene, &mut loaded.scene.image, [get("width"), get("height"), get("spp"), get("depth")])?;
+    let scene_data = &mut loaded.scene;
+    if let Some(passes) = m.get_many::<String>("passes") {
+        scene_data.output.passes = strahl::job::parse_passes(&passes.cloned().collect::<Vec<_>>())?;
+    }
+    scene_data.output.transparent |= m.get_flag("transparent");
+    if let Some(&levels) = m.get_one::<u32>("cryptomatte_levels") {
+        scene_data.output.crypto_levels = levels;
+    }
+    if let Some(&ev) = m.get_one::<f32>("exposure") {
+        if !ev.is_finite() {
+            bail!("-- --exposure {ev} is not a finite number of stops");
+        }
+    }
+    if let Some(&every) = m.get_one::<f64>("checkpoint_every") {
+        if Duration::try_from_secs_f64(every).is_err() {
+            bail!("-- --checkpoint-every {every} is not a number of seconds (0 or more)");
+        }
+    }
+    let (width, height) = (scene_data.image.width, scene_data.image.height);
+    if a.tiles > height {
+        bail!(
+            "{}: --tiles {} is more than the image's {height} rows (a tile is at least one row)",
+            a.scene.display(),
+            a.tiles
+        );
+    }
+    // An explicit budget is the same on every node (the default is each node's own memory).
+    if let Some(&limit) = m.get_one::<u64>("max_memory") {
+        let rows = height.div_ceil(a.tiles) as u64;
+        let needs = strahl::job::memory::estimate(scene_data, rows * width as u64);
+        if needs.total() > limit {
+            bail!(
+                "{}: a tile needs about {needs}, more than -- --max-memory {}: use more tiles or raise it",
+                a.scene.display(),
+                strahl::job::memory::megabytes(limit)
+            );
+        }
+    }
+    if let Some(dir) = confine {
+        for input in strahl::sys::read::inputs_read() {
+            let resolved = input.canonicalize().unwrap_or(input.clone());
+            if !resolved.starts_with(dir) {
+                bail!("{}: is read by the scene but outside --confine {}", input.display(), dir.display());
+            }
+        }
+    }
+    Ok(())
+}
+
 fn slurm(a: SlurmArgs) -> anyhow::Result<()> {
     if !a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         bail!("{}: the output must have the extension .exr", a.output.display());
@@ -93,82 +216,110 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<()> {
     if !a.scene.is_file() {
         bail!("{}: the scene file does not exist", a.scene.display());
     }
-    if a.render.iter().any(|o| ["-o", "--output", "--tile", "--region", "--resume"].contains(&o.as_str())) {
-        bail!("the render options after -- must not set -o, --tile, --region or --resume: the jobs set them");
+    if MeshFormat::of(&a.scene).is_some() {
+        bail!(
+            "{}: is a mesh file, with no camera or lights to render it by; name it in a scene file \
+             (an object of `type = \"mesh\"`, see docs/scene-format.md)",
+            a.scene.display()
+        );
     }
     let scene = a.scene.canonicalize().with_context(|| format!("{}: cannot resolve", a.scene.display()))?;
     let output = absolute(&a.output, "output")?;
     let strahl = match &a.strahl {
+        // A bare name is looked up on the nodes' PATH; a path is made absolute.
+        Some(p) if p.components().count() > 1 => {
+            std::path::absolute(p).with_context(|| format!("--strahl {}: cannot make it absolute", p.display()))?
+        }
         Some(p) => p.clone(),
         None => std::env::current_exe().context("cannot find this strahl's path")?,
     };
-    let dir = PathBuf::from(format!("{}.farm", output.display()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create the job directory", dir.display()))?;
-    let n = a.tiles;
-    let tile = |i: &str| dir.join(format!("tile-{i}.exr"));
-
-    let options = |name: &str, log: &str| -> anyhow::Result<String> {
-        let mut s = String::from("#!/bin/sh\n");
-        writeln!(s, "#SBATCH --job-name={name}")?;
-        writeln!(s, "#SBATCH --output={}", dir.join(log).display())?;
-        if let Some(p) = &a.partition {
-            writeln!(s, "#SBATCH --partition={p}")?;
+    let confine = match &a.confine {
+        Some(dir) => {
+            let has_confine = super::render::RenderArgs::augment_args(clap::Command::new("render"))
+                .get_arguments()
+                .any(|arg| arg.get_id() == "confine");
+            if !has_confine {
+                bail!("--confine: this strahl's render has no --confine to pass to the tasks");
+            }
+            let d = dir.canonicalize().with_context(|| format!("--confine {}: cannot resolve", dir.display()))?;
+            if !d.is_dir() {
+                bail!("--confine {}: is not a directory", dir.display());
+            }
+            if !scene.starts_with(&d) {
+                bail!("{}: the scene is outside --confine {}", a.scene.display(), dir.display());
+            }
+            Some(d)
         }
-        if let Some(t) = &a.time {
-            writeln!(s, "#SBATCH --time={t}")?;
-        }
-        if let Some(c) = a.cpus {
-            writeln!(s, "#SBATCH --cpus-per-task={c}")?;
-        }
-        Ok(s)
+        None => None,
     };
-    let mut render = options("strahl-render", "render-%A_%a.log")?;
-    writeln!(render, "#SBATCH --array=1-{n}")?;
-    writeln!(render, "#SBATCH --requeue")?;
-    writeln!(render, "# Task I renders tile I of {n}; --resume continues a requeued task from its checkpoint.")?;
-    let extra: Vec<String> = a.render.iter().map(|o| quote(o)).collect();
-    let threads = a.cpus.map(|c| format!(" --threads {c}")).unwrap_or_default();
-    let tile_path = shell_path(&dir)?;
-    writeln!(
-        render,
-        "exec {} render {} -o {}/tile-\"$SLURM_ARRAY_TASK_ID\".exr --tile \"$SLURM_ARRAY_TASK_ID\"/{n} --resume{threads}{}",
-        shell_path(&strahl)?,
-        shell_path(&scene)?,
-        tile_path,
-        extra.iter().map(|e| format!(" {e}")).collect::<String>()
-    )?;
-    let mut merge = options("strahl-merge", "merge-%j.log")?;
-    let parts: Vec<String> = (1..=n).map(|i| shell_path(&tile(&i.to_string()))).collect::<anyhow::Result<_>>()?;
-    writeln!(merge, "exec {} merge {} {}", shell_path(&strahl)?, shell_path(&output)?, parts.join(" "))?;
+    let job = SlurmJob {
+        strahl,
+        scene: scene.clone(),
+        output,
+        tiles: a.tiles,
+        partition: a.partition.clone(),
+        time: a.time.clone(),
+        cpus: a.cpus,
+        confine: confine.clone(),
+        render_options: a.render.clone(),
+    };
+    let scripts = strahl::farm::slurm_scripts(&job)?;
+    let options = parse_render_options(&a)?;
+    parse_task(&a, &job, &scripts)?;
+    check_scene(&a, &scene, confine.as_deref(), &options)?;
 
-    let (render_script, merge_script) = (dir.join("render.sbatch"), dir.join("merge.sbatch"));
-    strahl::sys::atomic::write_atomically(&render_script, render.as_bytes())?;
-    strahl::sys::atomic::write_atomically(&merge_script, merge.as_bytes())?;
+    write_scripts(&scripts)?;
+    let (render_script, merge_script) = (scripts.render_path(), scripts.merge_path());
+    let n = a.tiles;
     println!("wrote {} ({n} tile renders) and {}", render_script.display(), merge_script.display());
     if !a.submit {
         println!("submit with:");
-        println!("  id=$(sbatch --parsable {}) && \\", render_script.display());
-        println!("  sbatch --dependency=afterok:\"${{id%%;*}}\" {}", merge_script.display());
+        for line in scripts.submit_commands().lines() {
+            println!("  {line}");
+        }
         return Ok(());
     }
-    let render_id = sbatch(&[render_script.as_os_str().to_str().unwrap_or_default()])?;
-    let merge_id = sbatch(&[&format!("--dependency=afterok:{render_id}"), merge_script.to_str().unwrap_or_default()])?;
-    println!("submitted job array {render_id} (tiles 1-{n}) and merge job {merge_id} (after it succeeds)");
+    let render_id = sbatch(&[render_script.as_os_str()])?;
+    let dependency = format!("--dependency=afterany:{render_id}");
+    let merge_id = sbatch(&[dependency.as_ref(), merge_script.as_os_str()]).with_context(|| {
+        format!("submitted the render array {render_id}, but not the merge (submit it with `sbatch {dependency} …/merge.sbatch`)")
+    })?;
+    println!("submitted job array {render_id} (tiles 1-{n}) and merge job {merge_id} (after the array ends)");
     println!("{render_id} {merge_id}");
     Ok(())
 }
 
+/// Writes both scripts into their folder, creating it; a failure removes a folder it created.
+fn write_scripts(scripts: &Scripts) -> anyhow::Result<()> {
+    let folder = &scripts.folder;
+    let created = match std::fs::create_dir(folder) {
+        Ok(()) => true,
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && folder.is_dir() => false,
+        Err(e) => return Err(e).with_context(|| format!("{}: cannot create the job folder", folder.display())),
+    };
+    let written = strahl::sys::atomic::write_atomically(&scripts.render_path(), scripts.render.as_bytes())
+        .and_then(|()| strahl::sys::atomic::write_atomically(&scripts.merge_path(), scripts.merge.as_bytes()));
+    if let Err(e) = written {
+        if created {
+            let _ = std::fs::remove_dir_all(folder);
+        }
+        return Err(e.into());
+    }
+    Ok(())
+}
+
 /// Runs `sbatch --parsable ARGS` and returns the job id it prints.
-fn sbatch(args: &[&str]) -> anyhow::Result<String> {
+fn sbatch(args: &[&std::ffi::OsStr]) -> anyhow::Result<String> {
     let out = Command::new("sbatch")
         .arg("--parsable")
         .args(args)
         .output()
         .context("cannot run sbatch (is Slurm's client installed?)")?;
     let stdout = String::from_utf8_lossy(&out.stdout);
+    let shown: Vec<String> = args.iter().map(|a| a.to_string_lossy().into_owned()).collect();
     if !out.status.success() {
         let stderr = String::from_utf8_lossy(&out.stderr);
-        bail!("sbatch {} failed: {}", args.join(" "), stderr.trim().replace('\n', "; "));
+        bail!("sbatch {} failed: {}", shown.join(" "), stderr.trim().replace('\n', "; "));
     }
     let id = stdout.trim().split(';').next().unwrap_or("").to_string();
     if id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {

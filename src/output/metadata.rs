@@ -11,7 +11,7 @@
 //! | `samplesPerPixel` | int | samples per pixel (as pbrt-v4) |
 //! | `strahl/maxDepth` | int | longest chain of reflected/refracted rays |
 //! | `strahl/backend` | string | `embree` or `native` |
-//! | `strahl/scene` | string | the scene file as given on the command line |
+//! | `strahl/scene` | string | the scene file's name, without its folder ([`scene_entry`]) |
 //! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
 //! | `strahl/transparent` | int | 1 for a transparent render (alpha = coverage), else 0 |
 //! | `worldToCamera` | m44f | world → camera space (below) |
@@ -68,7 +68,7 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         ("samplesPerPixel".into(), Attribute::Int(scene.image.spp as i32)),
         ("strahl/maxDepth".into(), Attribute::Int(scene.image.max_depth as i32)),
         ("strahl/backend".into(), text(&info.backend)),
-        ("strahl/scene".into(), text(&info.scene_file)),
+        ("strahl/scene".into(), text(&scene_entry(&info.scene_file))),
         ("strahl/sceneHash".into(), text(&crate::scene::hash::scene_hash_hex(scene))),
         ("strahl/transparent".into(), Attribute::Int(scene.output.transparent as i32)),
     ];
@@ -83,6 +83,14 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         out.push(("worldToNDC".into(), Attribute::Matrix(to_ndc)));
     }
     out
+}
+
+/// The `strahl/scene` entry of the scene file `path`: its file name, however the folder was
+/// spelled (relative, absolute, through a link) and wherever it lies, so that a frame rendered
+/// in one process, or as a farm's tiles from an absolute path, or on another machine, has the
+/// same bytes; `strahl/sceneHash` identifies what the scene holds.
+pub fn scene_entry(path: &str) -> String {
+    std::path::Path::new(path).file_name().map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 /// `seconds` as Blender writes `RenderTime`: `MM:SS.ss`.
