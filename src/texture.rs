@@ -81,21 +81,32 @@ pub const TEXEL_BYTES: u64 = std::mem::size_of::<Vec3>() as u64;
 /// cannot hold more raw pixel bytes than this many times its own size.
 const DEFLATE_MAX_RATIO: u64 = 1032;
 
-/// Why a file of `file_bytes` bytes cannot hold the `width × height` image its header declares,
-/// if it cannot: its pixels would need more data than the format can compress them into.
-/// - PNG: the raw pixel bytes `⌈W·H·bits/8⌉` over deflate's maximum ratio
-///   ([`DEFLATE_MAX_RATIO`]).
+/// Why the file `bytes` cannot hold the `width × height` image its header declares, if it
+/// cannot: its pixels would need more data than the format can compress them into.
+/// - PNG: the raw pixel bytes `⌈W·H·bits/8⌉` (bits per pixel from the IHDR chunk, which a PNG
+///   starts with: bit depth × channels) over deflate's maximum ratio ([`DEFLATE_MAX_RATIO`]).
 /// - JPEG (Huffman-coded, what the decoder reads): every 8 × 8 block of every component costs
 ///   at least one bit (its DC code) in the first scan, and the least-sampled component
 ///   (sampling factors are at most 4) has at least `⌈W/32⌉·⌈H/32⌉` blocks.
-fn unbacked(format: image::ImageFormat, file_bytes: u64, width: u32, height: u32, bits: u64) -> Option<String> {
+fn unbacked(format: image::ImageFormat, bytes: &[u8], width: u32, height: u32) -> Option<String> {
     let (w, h) = (width as u64, height as u64);
     let needed = match format {
-        image::ImageFormat::Png => (w * h * bits).div_ceil(8) / DEFLATE_MAX_RATIO,
+        image::ImageFormat::Png => {
+            // IHDR: bytes 16..24 the size, 24 the bit depth, 25 the colour type.
+            let channels = match bytes.get(25) {
+                Some(2) => 3,
+                Some(4) => 2,
+                Some(6) => 4,
+                _ => 1,
+            };
+            let bits = bytes.get(24).map_or(1, |&b| b.max(1) as u64) * channels;
+            (w * h * bits).div_ceil(8) / DEFLATE_MAX_RATIO
+        }
         image::ImageFormat::Jpeg => (w.div_ceil(32) * h.div_ceil(32)).div_ceil(8),
         _ => 0,
     };
-    (needed > file_bytes).then(|| {
+    let file_bytes = bytes.len();
+    (needed > file_bytes as u64).then(|| {
         format!(
             "declares {width} × {height} pixels, which need at least {needed} bytes of image data; the file has \
              {file_bytes} (truncated or forged)"
@@ -143,8 +154,7 @@ impl Image {
         if width == 0 || height == 0 {
             return Err(format!("{name}: the image has no pixels"));
         }
-        let bits = decoder.original_color_type().bits_per_pixel() as u64;
-        if let Some(problem) = unbacked(format, bytes.len() as u64, width, height, bits) {
+        if let Some(problem) = unbacked(format, bytes, width, height) {
             return Err(format!("{name}: {problem}"));
         }
         let color = decoder.color_type();
