@@ -250,7 +250,8 @@ fn gltf_nodes_form_a_forest() {
     let mut nodes = vec!["{\"children\":[1,2]}".to_string()];
     for level in 0..24 {
         let (a, b) = (1 + 2 * level, 2 + 2 * level);
-        let children = if level == 23 { "\"mesh\":0".to_string() } else { format!("\"children\":[{},{}]", a + 2, b + 2) };
+        let children =
+            if level == 23 { "\"mesh\":0".to_string() } else { format!("\"children\":[{},{}]", a + 2, b + 2) };
         nodes.push(format!("{{{children}}}"));
         nodes.push(format!("{{{children}}}"));
     }
@@ -311,7 +312,10 @@ fn a_glb_whose_length_is_not_the_file_and_a_mesh_without_primitives_are_refused(
     let path = dir.write("longer.glb", &longer);
     let e = refused_cheaply(&dir, &["info", s(&path)], &[]);
     let n = good.len();
-    assert!(e.ends_with(&format!("not a valid GLB file: its header says {n} bytes, but the file has {}", n + 64)), "{e}");
+    assert!(
+        e.ends_with(&format!("not a valid GLB file: its header says {n} bytes, but the file has {}", n + 64)),
+        "{e}"
+    );
     let path = dir.write("shorter.glb", &good[..n - 4]);
     let e = refused_cheaply(&dir, &["info", s(&path)], &[]);
     assert!(e.ends_with(&format!("its header says {n} bytes, but the file has {}", n - 4)), "{e}");
@@ -348,11 +352,17 @@ fn gltf_uris_are_relative_paths_and_read_once() {
     let out = common::strahl(&["info", s(&path)]);
     assert!(out.status.success(), "{}", common::text(&out.stderr));
     dir.write("other.bin", &big);
-    let text = gltf_with(r#"[{"mesh":0}]"#, "[0]", "big.bin")
-        .replace(r#"[{"byteLength":36,"uri":"big.bin"}]"#, r#"[{"byteLength":36,"uri":"big.bin"},{"byteLength":36,"uri":"other.bin"}]"#);
+    let text = gltf_with(r#"[{"mesh":0}]"#, "[0]", "big.bin").replace(
+        r#"[{"byteLength":36,"uri":"big.bin"}]"#,
+        r#"[{"byteLength":36,"uri":"big.bin"},{"byteLength":36,"uri":"other.bin"}]"#,
+    );
     let path = dir.write("two.gltf", text);
     let e = refused_cheaply(&dir, &["info", s(&path)], &[("STRAHL_MAX_MESH_BYTES", "1500000")]);
-    assert!(e.contains("buffer 1: ") && e.contains("other.bin: the buffers' files hold more than the limit of 1500000 bytes together"), "{e}");
+    assert!(
+        e.contains("buffer 1: ")
+            && e.contains("other.bin: the buffers' files hold more than the limit of 1500000 bytes together"),
+        "{e}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -374,7 +384,11 @@ fn confine_refuses_every_input_outside_the_folder() {
     let mut png = Vec::new();
     grey.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
     let triangle = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl tex\nf 1/1 2/1 3/1\n";
-    let scene = |mesh: &str| format!("{CAMERA}[[lights]]\ntype = \"point\"\nposition = [0, 0, 4]\nintensity = 10\n[[objects]]\ntype = \"mesh\"\npath = \"{mesh}\"\n");
+    let scene = |mesh: &str| {
+        format!(
+            "{CAMERA}[[lights]]\ntype = \"point\"\nposition = [0, 0, 4]\nintensity = 10\n[[objects]]\ntype = \"mesh\"\npath = \"{mesh}\"\n"
+        )
+    };
     let out = dir.path("out.exr");
     let confine = inside.to_str().unwrap();
     let render = |scene: &Path| ["render", s(scene), "--confine", confine, "-o", s(&out)].map(str::to_string);
@@ -382,7 +396,7 @@ fn confine_refuses_every_input_outside_the_folder() {
         let args = render(scene);
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         let e = refused_cheaply(&dir, &args, &[]);
-        assert!(e.contains(culprit) && e.ends_with(&format!("(--confine): not read")), "{culprit}: {e}");
+        assert!(e.contains(culprit) && e.ends_with("(--confine): not read"), "{culprit}: {e}");
         assert!(!out.exists());
         e
     };
@@ -412,7 +426,9 @@ fn confine_refuses_every_input_outside_the_folder() {
     refused_confined(&s2, "o.obj:1: ");
     // A texture outside, by `../` and by an absolute path.
     put(&outside, "t.png", &png);
-    for (name, texture) in [("up", "../elsewhere/t.png".to_string()), ("abs", outside.join("t.png").display().to_string())] {
+    for (name, texture) in
+        [("up", "../elsewhere/t.png".to_string()), ("abs", outside.join("t.png").display().to_string())]
+    {
         put(&inside, &format!("{name}.mtl"), format!("newmtl tex\nmap_Kd {texture}\n").as_bytes());
         put(&inside, &format!("{name}.obj"), &[format!("mtllib {name}.mtl\n").as_bytes(), triangle].concat());
         let sc = put(&inside, &format!("{name}.toml"), scene(&format!("{name}.obj")).as_bytes());
