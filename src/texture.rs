@@ -4,7 +4,11 @@
 //! - **Decoding** (the `image` crate): 8- and 16-bit images are sRGB-encoded, so each channel
 //!   `c ∈ [0, 1]` is turned into linear reflectance once, at load time, with the sRGB transfer
 //!   function `c ≤ 0.04045 ? c/12.92 : ((c + 0.055)/1.055)^2.4` (computed in f64). Alpha is
-//!   ignored (strahl's surfaces are opaque).
+//!   ignored (strahl's surfaces are opaque). The header is checked before anything is
+//!   allocated: the texels must fit in what is left of the memory budget
+//!   ([`crate::io::read::remaining_memory`]; they are counted there while the image lives) and
+//!   the declared size in what the file's bytes can hold; the pixels are then decoded into the
+//!   texel array itself and widened in place ([`Image::decode`]).
 //! - **Coordinates**: `(u, v)` with `(0, 0)` the **bottom-left** corner of the image and
 //!   `(1, 1)` the top-right, as OBJ and PLY store them (glTF's top-left origin is converted
 //!   when its files are read). Texel `(i, j)` (column `i`, row `j` from the top) has its
