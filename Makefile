@@ -132,15 +132,16 @@ scale: build
 # Fuzz the readers with cargo-fuzz (nightly Rust; installs cargo-fuzz if missing): each target
 # of fuzz/ runs FUZZ_SECONDS (default 600) with a 10 s hang timeout and a 2 GB memory limit,
 # seeded with the shipped scenes, the test data's OBJ/MTL/PLY files (../shared/data/meshes, or
-# STRAHL_TEST_DATA) and a pygltflib-written glTF. A crash, hang or OOM leaves its input in
+# STRAHL_TEST_DATA), a pygltflib-written glTF and the PNGs of docs/. A crash, hang or OOM leaves its input in
 # fuzz/artifacts/TARGET/ and stops with a non-zero status; make it a regression test.
 FUZZ_SECONDS ?= 600
-FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script
+FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script texture
 FUZZ_DATA := $(or $(STRAHL_TEST_DATA),../shared/data)/meshes
 fuzz:
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
 	@mkdir -p $(addprefix fuzz/corpus/,$(FUZZ_TARGETS))
 	@cp scenes/*.toml fuzz/corpus/scene_toml/
+	@find docs -size -1000k \( -name '*.png' -o -name '*.jpg' \) -exec cp {} fuzz/corpus/texture/ \;
 	@if [ -d "$(FUZZ_DATA)" ]; then \
 	  find "$(FUZZ_DATA)" -size -1000k \( -name '*.obj' -o -name '*.mtl' \) | while read -r f; do cp "$$f" "fuzz/corpus/obj_mtl/$$(echo "$$f" | md5sum | cut -c1-16)"; done; \
 	  find "$(FUZZ_DATA)" -size -1000k -name '*.ply' | while read -r f; do cp "$$f" "fuzz/corpus/ply/$$(echo "$$f" | md5sum | cut -c1-16)"; done; \

@@ -4,7 +4,11 @@
 //! - **Decoding** (the `image` crate): 8- and 16-bit images are sRGB-encoded, so each channel
 //!   `c ∈ [0, 1]` is turned into linear reflectance once, at load time, with the sRGB transfer
 //!   function `c ≤ 0.04045 ? c/12.92 : ((c + 0.055)/1.055)^2.4` (computed in f64). Alpha is
-//!   ignored (strahl's surfaces are opaque).
+//!   ignored (strahl's surfaces are opaque). The header is checked before anything is
+//!   allocated: the texels must fit in what is left of the memory budget
+//!   ([`crate::sys::read::remaining_memory`]; they are counted there while the image lives) and
+//!   the declared size in what the file's bytes can hold; the pixels are then decoded into the
+//!   texel array itself and widened in place ([`Image::decode`]).
 //! - **Coordinates**: `(u, v)` with `(0, 0)` the **bottom-left** corner of the image and
 //!   `(1, 1)` the top-right, as OBJ and PLY store them (glTF's top-left origin is converted
 //!   when its files are read). Texel `(i, j)` (column `i`, row `j` from the top) has its
@@ -23,6 +27,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, Weak};
 use std::time::SystemTime;
 
+use crate::sys::read::{Held, check_memory, remaining_memory};
 use crate::math::{Vec2, Vec3};
 
 /// What a texture coordinate outside `[0, 1)` maps to (glTF sampler `wrapS`/`wrapT`).
@@ -64,6 +69,8 @@ pub struct Image {
     pub height: usize,
     /// `width·height` linear reflectances, row-major from the top-left.
     pub texels: Vec<Vec3>,
+    /// The texels' bytes, counted against the memory budget while the image lives.
+    held: Held,
 }
 
 /// The sRGB transfer function's inverse: an encoded channel in [0, 1] to linear.
@@ -71,32 +78,136 @@ pub fn srgb_to_linear(c: f64) -> f64 {
     if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
+/// Bytes of one texel as strahl keeps it (linear RGB, f32).
+pub const TEXEL_BYTES: u64 = std::mem::size_of::<Vec3>() as u64;
+
+/// Deflate's largest compression ratio (a 258-byte match in a 1-bit code, about 1032:1): a PNG
+/// cannot hold more raw pixel bytes than this many times its own size.
+const DEFLATE_MAX_RATIO: u64 = 1032;
+
+/// Why the file `bytes` cannot hold the `width × height` image its header declares, if it
+/// cannot: its pixels would need more data than the format can compress them into.
+/// - PNG: the raw pixel bytes `⌈W·H·bits/8⌉` (bits per pixel from the IHDR chunk, which a PNG
+///   starts with: bit depth × channels) over deflate's maximum ratio ([`DEFLATE_MAX_RATIO`]).
+/// - JPEG (Huffman-coded, what the decoder reads): every 8 × 8 block of every component costs
+///   at least one bit (its DC code) in the first scan, and the least-sampled component
+///   (sampling factors are at most 4) has at least `⌈W/32⌉·⌈H/32⌉` blocks.
+fn unbacked(format: image::ImageFormat, bytes: &[u8], width: u32, height: u32) -> Option<String> {
+    let (w, h) = (width as u64, height as u64);
+    let needed = match format {
+        image::ImageFormat::Png => {
+            // IHDR: bytes 16..24 the size, 24 the bit depth, 25 the colour type.
+            let channels = match bytes.get(25) {
+                Some(2) => 3,
+                Some(4) => 2,
+                Some(6) => 4,
+                _ => 1,
+            };
+            let bits = bytes.get(24).map_or(1, |&b| b.max(1) as u64) * channels;
+            (w * h * bits).div_ceil(8) / DEFLATE_MAX_RATIO
+        }
+        image::ImageFormat::Jpeg => (w.div_ceil(32) * h.div_ceil(32)).div_ceil(8),
+        _ => 0,
+    };
+    let file_bytes = bytes.len();
+    (needed > file_bytes as u64).then(|| {
+        format!(
+            "declares {width} × {height} pixels, which need at least {needed} bytes of image data; the file has \
+             {file_bytes} (truncated or forged)"
+        )
+    })
+}
+
 impl Image {
+    /// An image of the given texels (`width·height` of them, row-major from the top-left),
+    /// counted against the memory budget.
+    pub fn from_texels(name: &str, width: usize, height: usize, texels: Vec<Vec3>) -> Result<Image, String> {
+        if texels.len() != width * height || texels.is_empty() {
+            return Err(format!("{name}: {} texels for {width} × {height}", texels.len()));
+        }
+        let held =
+            Held::take(texels.len() as u64 * TEXEL_BYTES, format!("{name}: the texels")).map_err(|e| e.to_string())?;
+        Ok(Image { name: name.to_string(), width, height, texels, held })
+    }
+
     /// Decodes a PNG or JPEG file's bytes (the format is read from the bytes, not a file
-    /// name); `name` names the image in errors. 8-bit images go through a 256-entry table,
-    /// deeper ones through the formula.
+    /// name); `name` names the image in errors.
+    ///
+    /// The header is read first: a size the file cannot hold ([`unbacked`]) or whose texels
+    /// (and, for JPEG, the decoder's coefficients, 2 bytes per sample) do not fit in what is
+    /// left of the memory budget ([`crate::sys::read::remaining_memory`], also given to the
+    /// decoder as the `image` crate's `Limits`) is refused before anything is allocated. The
+    /// pixels are then decoded into the tail of the texel array itself and widened in place,
+    /// front to back, to linear f32 RGB (a texel of at most 12 bytes never overtakes the
+    /// encoded texels still ahead of it): the texels are the one full-size allocation. 8-bit
+    /// channels go through a 256-entry table, 16-bit ones through the formula.
     pub fn decode(bytes: &[u8], name: &str) -> Result<Image, String> {
-        let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        use image::ImageDecoder;
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
             .map_err(|e| format!("{name}: cannot read the image: {e}"))?;
-        if reader.format().is_none() {
-            return Err(format!("{name}: is not a PNG or JPEG image"));
-        }
-        let decoded = reader.decode().map_err(|e| format!("{name}: cannot decode the image: {e}"))?;
-        let (width, height) = (decoded.width() as usize, decoded.height() as usize);
-        let texels = if decoded.color().bytes_per_pixel() / decoded.color().channel_count().max(1) > 1 {
-            let rgb = decoded.into_rgb16();
-            let lin = |c: u16| srgb_to_linear(c as f64 / 65535.0) as f32;
-            rgb.pixels().map(|p| Vec3::new(lin(p[0]), lin(p[1]), lin(p[2]))).collect()
-        } else {
-            let table: Vec<f32> = (0..256).map(|c| srgb_to_linear(c as f64 / 255.0) as f32).collect();
-            let rgb = decoded.into_rgb8();
-            rgb.pixels().map(|p| Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize])).collect()
+        let format = match reader.format() {
+            Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg)) => f,
+            _ => return Err(format!("{name}: is not a PNG or JPEG image")),
         };
+        let mut limits = image::Limits::no_limits();
+        limits.max_alloc = Some(remaining_memory());
+        reader.limits(limits.clone());
+        let mut decoder = reader.into_decoder().map_err(|e| format!("{name}: cannot read the image: {e}"))?;
+        let (width, height) = decoder.dimensions();
         if width == 0 || height == 0 {
             return Err(format!("{name}: the image has no pixels"));
         }
-        Ok(Image { name: name.to_string(), width, height, texels })
+        if let Some(problem) = unbacked(format, bytes, width, height) {
+            return Err(format!("{name}: {problem}"));
+        }
+        let color = decoder.color_type();
+        let bpp = color.bytes_per_pixel() as usize;
+        if !matches!(
+            color,
+            image::ColorType::L8
+                | image::ColorType::La8
+                | image::ColorType::Rgb8
+                | image::ColorType::Rgba8
+                | image::ColorType::L16
+                | image::ColorType::La16
+                | image::ColorType::Rgb16
+                | image::ColorType::Rgba16
+        ) {
+            return Err(format!("{name}: {color:?} pixels are not read (8- or 16-bit images only)"));
+        }
+        let pixels = width as u64 * height as u64;
+        let texel_bytes = pixels * TEXEL_BYTES;
+        let decoder_bytes = match format {
+            image::ImageFormat::Jpeg => pixels * color.channel_count() as u64 * 2,
+            _ => 0,
+        };
+        let what = format!("{name}: decoding {width} × {height} texels");
+        check_memory(texel_bytes + decoder_bytes, what.clone()).map_err(|e| e.to_string())?;
+        let held = Held::take(texel_bytes, what).map_err(|e| e.to_string())?;
+        limits.max_alloc = Some(remaining_memory());
+        limits.max_image_width = Some(width);
+        limits.max_image_height = Some(height);
+        decoder.set_limits(limits).map_err(|e| format!("{name}: cannot decode the image: {e}"))?;
+        let n = pixels as usize;
+        let mut texels = vec![Vec3::ZERO; n];
+        let buffer: &mut [u8] = bytemuck::cast_slice_mut(&mut texels);
+        let encoded = buffer.len() - n * bpp;
+        decoder.read_image(&mut buffer[encoded..]).map_err(|e| format!("{name}: cannot decode the image: {e}"))?;
+        let t8: Vec<f32> = (0..256).map(|c| srgb_to_linear(c as f64 / 255.0) as f32).collect();
+        let t8 = |c: u8| t8[c as usize];
+        let l16 = |b: &[u8]| srgb_to_linear(u16::from_ne_bytes([b[0], b[1]]) as f64 / 65535.0) as f32;
+        match color {
+            image::ColorType::L8 => widen::<1>(buffer, n, |p| [t8(p[0]); 3]),
+            image::ColorType::La8 => widen::<2>(buffer, n, |p| [t8(p[0]); 3]),
+            image::ColorType::Rgb8 => widen::<3>(buffer, n, |p| [t8(p[0]), t8(p[1]), t8(p[2])]),
+            image::ColorType::Rgba8 => widen::<4>(buffer, n, |p| [t8(p[0]), t8(p[1]), t8(p[2])]),
+            image::ColorType::L16 => widen::<2>(buffer, n, |p| [l16(&p[..]); 3]),
+            image::ColorType::La16 => widen::<4>(buffer, n, |p| [l16(&p[..]); 3]),
+            image::ColorType::Rgb16 => widen::<6>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
+            _ => widen::<8>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
+        }
+        Ok(Image { name: name.to_string(), width: width as usize, height: height as usize, texels, held })
     }
 
     /// Reads and decodes the image file at `path` (a regular file of at most
@@ -117,6 +228,20 @@ impl Image {
     /// Bytes the texels take.
     pub fn size_bytes(&self) -> usize {
         self.texels.len() * std::mem::size_of::<Vec3>()
+    }
+}
+
+/// Widens `n` encoded pixels of `B` bytes, which fill the tail of `buffer` (`n` texels of
+/// [`TEXEL_BYTES`]), into texels in place, front to back: writing texel `i` ends at byte
+/// `12(i + 1)`, and pixel `i + 1` starts at `12n − B(n − i − 1) ≥ 12(i + 1)` for `B ≤ 12`.
+fn widen<const B: usize>(buffer: &mut [u8], n: usize, texel: impl Fn(&[u8; B]) -> [f32; 3]) {
+    const { assert!(B as u64 <= TEXEL_BYTES) };
+    let start = buffer.len() - n * B;
+    for i in 0..n {
+        let at = start + i * B;
+        let pixel: [u8; B] = buffer[at..at + B].try_into().expect("B bytes");
+        let rgb = texel(&pixel);
+        buffer[i * 12..i * 12 + 12].copy_from_slice(bytemuck::cast_slice(&rgb));
     }
 }
 
@@ -165,7 +290,7 @@ pub fn open_shared(path: &Path) -> Result<Arc<Image>, String> {
     let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     cache.retain(|_, image| image.strong_count() > 0);
     if let Some(image) = cache.get(&key).and_then(Weak::upgrade) {
-        crate::sys::read::note_input(path);
+        crate::sys::read::note_input(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
         return Ok(image);
     }
     let image = Arc::new(Image::open(path)?);
@@ -180,7 +305,7 @@ mod tests {
     /// A 2×2 image: top row red, green; bottom row blue, white (linear values).
     fn quad(wrap: Wrap) -> ImageTexture {
         let texels = vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
-        let image = Arc::new(Image { name: "t".into(), width: 2, height: 2, texels });
+        let image = Arc::new(Image::from_texels("t", 2, 2, texels).unwrap());
         ImageTexture { image, wrap_u: wrap, wrap_v: wrap, factor: Vec3::ONE }
     }
 

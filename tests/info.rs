@@ -102,8 +102,11 @@ fn the_cornell_box_obj_and_a_mesh_with_degenerate_triangles() {
     assert!(lines.contains(&"bounds: min [-1.0200, 0.0000, -1.0400] max [1.0000, 1.9900, 0.9900] (meshes and spheres; planes are unbounded)".into()), "{lines:?}");
     assert_eq!(stderr, "");
 
-    // The spider drops 56 of its 1,368 triangles (zero area): counted, and warned about.
-    let spider = data.join("edge-cases/assimp-obj/spider.obj");
+    // The spider drops 56 of its 1,368 triangles (zero area): counted, and warned about. (Its
+    // MTL library names textures the data does not ship, an error: the copy leaves it out.)
+    let text = std::fs::read_to_string(data.join("edge-cases/assimp-obj/spider.obj")).unwrap();
+    let spider =
+        dir.write("spider.obj", text.lines().filter(|l| !l.starts_with("mtllib")).collect::<Vec<_>>().join("\n"));
     let scene = dir.write(
         "spider.toml",
         format!("{head}[materials.m]\ndiffuse = 0.5\n[[objects]]\ntype = \"mesh\"\nname = \"spider\"\npath = {:?}\nmaterial = \"m\"\n", spider.display()),

@@ -1,7 +1,7 @@
 //! OBJ `map_Kd` image textures: a quad with texture coordinates and a checker PNG gives the
 //! analytic texel colour (sRGB decoded exactly) in the albedo AOV and, under a light shining
-//! along the view, in the image; a missing texture file is a warning at its MTL line (the
-//! surface keeps Kd), a file that is not an image an error there.
+//! along the view, in the image; a missing texture file, or one that is not an image, is an
+//! error at its MTL line.
 
 mod common;
 
@@ -68,15 +68,16 @@ fn map_kd_shows_the_texel_colours() {
 }
 
 #[test]
-fn a_missing_map_kd_file_is_a_warning_and_a_non_image_an_error_at_its_line() {
+fn a_missing_map_kd_file_and_a_non_image_are_errors_at_its_line() {
     let dir = TempDir::new("map-kd-missing");
     dir.write("quad.mtl", "newmtl tex\nKd 0.5 0.25 0.125\nmap_Kd gone.png\n");
     dir.write("quad.obj", "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl tex\nf 1 2 3\n");
-    let loaded = from_toml_str(SCENE, &dir.path("s.toml")).unwrap();
-    let w = loaded.warnings.join("\n");
-    assert!(w.contains("quad.mtl:3: map_Kd: ") && w.contains("gone.png does not exist"), "{w}");
+    let e = from_toml_str(SCENE, &dir.path("s.toml")).unwrap_err().to_string();
+    assert!(e.contains("quad.obj:1: ") && e.contains("quad.mtl:3: map_Kd: "), "{e}");
+    assert!(e.contains("gone.png: cannot read the texture: No such file or directory"), "{e}");
+    assert_eq!(e.lines().count(), 1);
     dir.write("gone.png", "not a png");
     let e = from_toml_str(SCENE, &dir.path("s.toml")).unwrap_err().to_string();
-    assert!(e.contains("quad.mtl:3: map_Kd: ") && e.contains("gone.png"), "{e}");
+    assert!(e.contains("quad.mtl:3: map_Kd: ") && e.contains("gone.png: is not a PNG or JPEG image"), "{e}");
     assert_eq!(e.lines().count(), 1);
 }

@@ -19,6 +19,8 @@ use super::KindArg;
 pub struct BenchArgs {
     /// The scene file (TOML), or a mesh file (OBJ, PLY; optionally .gz) on its own.
     scene: PathBuf,
+    #[command(flatten)]
+    confine: super::ConfineArg,
     /// Rays of each kind (primary rays: the nearest square image, 1000 × 1000 for a million).
     #[arg(long, value_name = "N", default_value_t = workload::DEFAULT_RAYS as u64, value_parser = clap::value_parser!(u64).range(1..=super::MAX_RAYS))]
     rays: u64,
@@ -37,6 +39,7 @@ pub struct BenchArgs {
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    super::set_load_options(&args.confine, None)?;
     let scene = super::load_scene(&args.scene)?.scene;
     super::check_bounded(&args.scene, &scene)?;
     let config = Config {

@@ -24,6 +24,8 @@ const EXAMPLES: usize = 5;
 pub struct CrosscheckArgs {
     /// The scene file (TOML), or a mesh file (OBJ, PLY; optionally .gz) on its own.
     scene: PathBuf,
+    #[command(flatten)]
+    confine: super::ConfineArg,
     /// Rays of each kind (primary rays: the nearest square image, 1000 × 1000 for a million).
     #[arg(long, value_name = "N", default_value_t = workload::DEFAULT_RAYS as u64, value_parser = clap::value_parser!(u64).range(1..=super::MAX_RAYS))]
     rays: u64,
@@ -41,6 +43,7 @@ pub struct CrosscheckArgs {
 }
 
 pub fn run(args: CrosscheckArgs) -> anyhow::Result<()> {
+    super::set_load_options(&args.confine, None)?;
     let scene = super::load_scene(&args.scene)?.scene;
     super::check_bounded(&args.scene, &scene)?;
     let threads = strahl::job::thread_count(args.threads.map(|t| t as usize));

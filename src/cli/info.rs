@@ -17,6 +17,8 @@ use strahl::scene::{Loaded, ObjectSummary, Scene};
 pub struct InfoArgs {
     /// The scene file (TOML; see docs/scene-format.md).
     scene: PathBuf,
+    #[command(flatten)]
+    confine: super::ConfineArg,
     /// Image width for the memory estimate (as `strahl render --width`).
     #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
@@ -30,6 +32,7 @@ pub struct InfoArgs {
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let start = Instant::now();
+    super::set_load_options(&args.confine, None)?;
     let mut loaded = super::load_scene(&args.scene)?;
     let load_seconds = start.elapsed().as_secs_f64();
     // The size and passes a render would be given, for the memory estimate.

@@ -91,6 +91,22 @@ fn load_scene_with_camera(path: &Path, camera: Option<&str>) -> anyhow::Result<s
     Ok(loaded)
 }
 
+/// `--confine DIR`, for the commands that load a scene.
+#[derive(clap::Args, Debug)]
+struct ConfineArg {
+    /// Read the scene's files (the scene, meshes, MTL libraries, textures, glTF buffers and
+    /// images) only from inside DIR, after following symlinks: any other is refused, naming it.
+    #[arg(long, value_name = "DIR")]
+    confine: Option<std::path::PathBuf>,
+}
+
+/// Sets what the scene load may read and allocate ([`strahl::sys::read::LoadOptions`]):
+/// `--confine` and the memory budget (`--max-memory`; `None`: the default budget).
+fn set_load_options(confine: &ConfineArg, max_memory: Option<u64>) -> anyhow::Result<()> {
+    let options = strahl::sys::read::LoadOptions { max_memory, confine: confine.confine.clone() };
+    strahl::sys::read::set_load_options(options).map_err(anyhow::Error::msg)
+}
+
 /// [`load_scene_with_camera`] with a glTF file's first camera.
 fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
     load_scene_with_camera(path, None)

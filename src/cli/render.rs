@@ -36,6 +36,8 @@ pub struct RenderArgs {
     /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: 3/4 of physical memory].
     #[arg(long, value_name = "SIZE", value_parser = strahl::job::memory::parse_size)]
     max_memory: Option<u64>,
+    #[command(flatten)]
+    confine: super::ConfineArg,
     /// Image width in pixels (overrides the scene's).
     #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
@@ -116,6 +118,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.scene.display()
         );
     }
+    super::set_load_options(&args.confine, args.max_memory)?;
     let loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
     let settings = Settings {
         width: args.width,

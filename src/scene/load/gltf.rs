@@ -96,7 +96,7 @@ pub fn is_gltf(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
-/// Deepest node hierarchy followed (deeper is taken for a cycle).
+/// Deepest node hierarchy followed.
 const MAX_NODE_DEPTH: usize = 1024;
 
 /// Reads the glTF or GLB file at `path`. Image files are shared with every other material
@@ -139,29 +139,136 @@ fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
 /// [`load_gltf`] of a file's `bytes` (external buffers and images are read relative to
 /// `path`'s folder): what the fuzz target `gltf` calls. The bytes are dropped once parsed (a
 /// GLB's binary chunk is copied out of them), before the meshes are built.
+///
+/// Before anything is built from what the file declares: a GLB's header must give the file's
+/// own length; every mesh must have a primitive (the specification asks for one at least);
+/// the scene's nodes must form a forest ([`check_hierarchy`]: a node with two parents, or in a
+/// cycle, is refused naming it), so the placements are counted before they are made; and the
+/// meshes and placements, sized from their accessors' counts, must fit in what is left of the
+/// memory budget ([`crate::sys::read::check_memory`]).
 pub fn parse_gltf(path: &Path, bytes: Vec<u8>) -> Result<GltfFile, MeshError> {
     let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
+    check_glb_length(&bytes).map_err(err)?;
     check_position_accessors(&bytes).map_err(err)?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(gltf_error(&e)))?;
     drop(bytes);
+    if let Some(mesh) = document.meshes().find(|m| m.primitives().len() == 0) {
+        return Err(err(format!("mesh {}: has no primitives (glTF asks for at least one)", mesh.index())));
+    }
+    let scene = document.default_scene().or_else(|| document.scenes().next());
+    let Some(scene) = scene else {
+        return Err(err("the file has no scene".into()));
+    };
+    let hierarchy = check_hierarchy(&document, &scene).map_err(err)?;
+    check_budget(&document, &hierarchy).map_err(err)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let mut out = GltfFile::default();
     let buffers = read_buffers(&document, base, blob, &mut out.files).map_err(err)?;
     let mut reader = Reader { doc: &document, buffers: &buffers, base, images: HashMap::new(), out };
     reader.materials().map_err(err)?;
-    let scene = document.default_scene().or_else(|| document.scenes().next());
-    let Some(scene) = scene else {
-        return Err(err("the file has no scene".into()));
-    };
     let mut meshes: Vec<Option<Mesh>> = vec![None; document.meshes().len()];
     for node in scene.nodes() {
-        reader.node(&node, &Transform::default(), 0, &mut meshes).map_err(err)?;
+        reader.node(&node, &Transform::default(), &mut meshes).map_err(err)?;
     }
     let mut out = reader.out;
     out.meshes = meshes.into_iter().map(Option::unwrap_or_default).collect();
     let file = path.display().to_string();
     out.warnings.iter_mut().for_each(|w| *w = format!("{file}: {w}"));
     Ok(out)
+}
+
+/// A GLB's header (magic `glTF`, version, length) must give the length of the file itself:
+/// bytes past it would be ignored, and a length past the end means a cut file.
+fn check_glb_length(bytes: &[u8]) -> Result<(), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let Some(length) = bytes.get(8..12) else {
+        return Err(format!("not a valid GLB file: {} bytes, less than its 12-byte header", bytes.len()));
+    };
+    let length = u32::from_le_bytes(length.try_into().expect("4 bytes")) as u64;
+    if length != bytes.len() as u64 {
+        return Err(format!("not a valid GLB file: its header says {length} bytes, but the file has {}", bytes.len()));
+    }
+    Ok(())
+}
+
+/// What the scene's node hierarchy places, found before anything is built.
+struct Hierarchy {
+    /// Nodes that place a mesh (each becomes a flattened mesh or an instance).
+    placements: u64,
+    /// The meshes they place, each once.
+    meshes: Vec<usize>,
+}
+
+/// Walks the scene's nodes once, without recursion: every node may be reached once only, so a
+/// node that is the child of two nodes, listed twice among the roots, or in a cycle is refused
+/// naming it (glTF gives a node one parent at most, and the scene's nodes are roots), and a
+/// hierarchy deeper than [`MAX_NODE_DEPTH`] too. Then the nodes form a forest and each places
+/// its mesh once: a file cannot multiply its placements (24 levels of nodes each the child of
+/// the two above would make 2²⁴).
+fn check_hierarchy(doc: &gltf::Document, scene: &gltf::Scene) -> Result<Hierarchy, String> {
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
+    let mut parent_of: Vec<Option<Option<usize>>> = vec![None; nodes.len()];
+    let mut stack: Vec<(usize, Option<usize>, usize)> = scene.nodes().map(|n| (n.index(), None, 0)).collect();
+    stack.reverse();
+    let mut mesh_used = vec![false; doc.meshes().len()];
+    let mut placements = 0;
+    let name = |parent: Option<usize>| parent.map_or_else(|| "the scene's roots".to_string(), |p| format!("node {p}"));
+    while let Some((i, parent, depth)) = stack.pop() {
+        if let Some(first) = parent_of[i] {
+            return Err(format!(
+                "node {i}: is reached from both {} and {} (a glTF node has one parent at most, and no cycle)",
+                name(first),
+                name(parent)
+            ));
+        }
+        parent_of[i] = Some(parent);
+        if depth > MAX_NODE_DEPTH {
+            return Err(format!("node {i}: the node hierarchy is deeper than {MAX_NODE_DEPTH}"));
+        }
+        if let Some(mesh) = nodes[i].mesh() {
+            placements += 1;
+            mesh_used[mesh.index()] = true;
+        }
+        stack
+            .extend(nodes[i].children().map(|c| (c.index(), Some(i), depth + 1)).collect::<Vec<_>>().into_iter().rev());
+    }
+    let meshes = (0..mesh_used.len()).filter(|&m| mesh_used[m]).collect();
+    Ok(Hierarchy { placements, meshes })
+}
+
+/// Bytes a vertex can take while a mesh is read: position, normal, colour (12 each) and
+/// texture coordinates (8), every primitive's arrays filled for all of them.
+const VERTEX_BYTES: u64 = 44;
+/// Bytes of a triangle: three indices and its material.
+const TRIANGLE_BYTES: u64 = 16;
+/// Bytes of a placement: the node's record, the scene's instance (with its name) and its part
+/// of the BVH ([`crate::job::memory::BVH_BYTES_PER_INSTANCE`]).
+const PLACEMENT_BYTES: u64 = (std::mem::size_of::<MeshNode>() + std::mem::size_of::<crate::scene::Instance>() + 64)
+    as u64
+    + crate::job::memory::BVH_BYTES_PER_INSTANCE;
+
+/// Refuses a file whose placed meshes (sized from their accessors' counts, twice: the file's
+/// copy and the scene's) and placements do not fit in what is left of the memory budget.
+fn check_budget(doc: &gltf::Document, hierarchy: &Hierarchy) -> Result<(), String> {
+    let meshes: Vec<gltf::Mesh> = doc.meshes().collect();
+    let (mut vertices, mut triangles) = (0u64, 0u64);
+    for &m in &hierarchy.meshes {
+        for primitive in meshes[m].primitives() {
+            let n = primitive.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
+            vertices = vertices.saturating_add(n);
+            let corners = primitive.indices().map_or(n, |a| a.count() as u64);
+            triangles = triangles.saturating_add(corners / 3);
+        }
+    }
+    let bytes = vertices
+        .saturating_mul(VERTEX_BYTES)
+        .saturating_add(triangles.saturating_mul(TRIANGLE_BYTES))
+        .saturating_mul(2)
+        .saturating_add(hierarchy.placements.saturating_mul(PLACEMENT_BYTES));
+    let what = format!("its {} mesh placements of {vertices} vertices and {triangles} triangles", hierarchy.placements);
+    crate::sys::read::check_memory(bytes, what).map_err(|e| e.to_string())
 }
 
 /// The crate's error as one line; validation paths (`accessors[3].count`) become
@@ -208,21 +315,49 @@ fn element_of_path(path: &str) -> String {
 }
 
 /// Every buffer's bytes: the GLB binary chunk, a base64 `data:` URI or a file next to the
-/// glTF file. A buffer shorter than its `byteLength` is an error naming it.
+/// glTF file. A buffer shorter than its `byteLength` is an error naming it. A file named by
+/// several buffers is read once, and the files read together may hold no more than the mesh
+/// limit ([`crate::sys::read::max_mesh_bytes`]): a small file naming a large one many times cannot
+/// make strahl read more than that.
 fn read_buffers(
     doc: &gltf::Document,
     base: &Path,
     mut blob: Option<Vec<u8>>,
     files: &mut Vec<PathBuf>,
-) -> Result<Vec<Vec<u8>>, String> {
+) -> Result<Vec<Arc<Vec<u8>>>, String> {
+    let cap = crate::sys::read::max_mesh_bytes().map_err(|e| e.to_string())?;
+    let mut read: HashMap<PathBuf, Arc<Vec<u8>>> = HashMap::new();
+    let mut total = 0u64;
     let mut buffers = Vec::new();
     for buffer in doc.buffers() {
         let what = format!("buffer {}", buffer.index());
         let data = match buffer.source() {
-            gltf::buffer::Source::Bin => {
-                blob.take().ok_or_else(|| format!("{what}: refers to the GLB binary chunk, which is missing"))?
+            gltf::buffer::Source::Bin => Arc::new(
+                blob.take().ok_or_else(|| format!("{what}: refers to the GLB binary chunk, which is missing"))?,
+            ),
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                Arc::new(data_uri(uri).map_err(|e| format!("{what}: {e}"))?)
             }
-            gltf::buffer::Source::Uri(uri) => read_uri(uri, base, files).map_err(|e| format!("{what}: {e}"))?,
+            gltf::buffer::Source::Uri(uri) => {
+                let file = uri_file(uri, base).map_err(|e| format!("{what}: {e}"))?;
+                match read.get(&file) {
+                    Some(data) => data.clone(),
+                    None => {
+                        let data = crate::sys::read::read_regular(&file, cap, crate::sys::read::MESH_LIMIT_HINT)
+                            .map_err(|e| format!("{what}: {}: {e}", file.display()))?;
+                        total += data.len() as u64;
+                        if total > cap {
+                            return Err(format!(
+                                "{what}: {}: the buffers' files hold more than the limit of {cap} bytes together{}",
+                                file.display(),
+                                crate::sys::read::MESH_LIMIT_HINT
+                            ));
+                        }
+                        files.push(file.clone());
+                        read.entry(file).or_insert(Arc::new(data)).clone()
+                    }
+                }
+            }
         };
         if data.len() < buffer.length() {
             return Err(format!("{what}: holds {} bytes but byteLength says {}", data.len(), buffer.length()));
@@ -232,34 +367,41 @@ fn read_buffers(
     Ok(buffers)
 }
 
-/// The bytes a URI names: a base64 `data:` URI, or a (percent-encoded) path relative to
-/// `base`.
-fn read_uri(uri: &str, base: &Path, files: &mut Vec<PathBuf>) -> Result<Vec<u8>, String> {
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, data) = rest.split_once(";base64,").ok_or_else(|| "a data: URI that is not base64".to_string())?;
-        return base64::decode(data).map_err(|e| format!("the data: URI is not valid base64: {e}"));
-    }
-    if uri.contains("://") {
-        return Err(format!("URI {uri:?}: only relative file paths and data: URIs are read"));
-    }
+/// The bytes of a base64 `data:` URI.
+fn data_uri(uri: &str) -> Result<Vec<u8>, String> {
+    let rest = uri.strip_prefix("data:").unwrap_or(uri);
+    let (_, data) = rest.split_once(";base64,").ok_or_else(|| "a data: URI that is not base64".to_string())?;
+    base64::decode(data).map_err(|e| format!("the data: URI is not valid base64: {e}"))
+}
+
+/// The file a URI names: a (percent-encoded) path relative to `base`. glTF's URIs are relative
+/// references, so an absolute path (`/etc/passwd`, `%2Fetc%2Fpasswd`) and a URI with a scheme
+/// (`file:`, `http://`, a drive `C:`: a colon in the first segment) are refused, before and
+/// after decoding, whatever `--confine` says; `../` may climb out of the file's folder
+/// (`--confine` bounds where to).
+fn uri_file(uri: &str, base: &Path) -> Result<PathBuf, String> {
     let decoded = urlencoding::decode(uri).map_err(|_| format!("URI {uri:?} is not valid percent-encoding"))?;
-    let file = base.join(decoded.as_ref());
-    if !file.is_file() {
-        return Err(format!("{}: no such file", file.display()));
+    for text in [uri, decoded.as_ref()] {
+        let first = text.split(['/', '\\']).next().unwrap_or("");
+        if text.starts_with(['/', '\\']) || first.contains(':') {
+            return Err(format!(
+                "URI {uri:?}: only paths relative to the glTF file and data: URIs are read (not absolute paths or other schemes)"
+            ));
+        }
     }
-    let limit = crate::sys::read::max_mesh_bytes().map_err(|e| format!("{}: {e}", file.display()))?;
-    let data = crate::sys::read::read_regular(&file, limit, crate::sys::read::MESH_LIMIT_HINT)
-        .map_err(|e| format!("{}: {e}", file.display()))?;
-    files.push(file);
-    Ok(data)
+    if decoded.contains('\0') {
+        return Err(format!("URI {uri:?}: a path with a NUL byte"));
+    }
+    Ok(base.join(decoded.as_ref()))
 }
 
 struct Reader<'a> {
     doc: &'a gltf::Document,
-    buffers: &'a [Vec<u8>],
+    buffers: &'a [Arc<Vec<u8>>],
     base: &'a Path,
-    /// Decoded glTF images by index (shared by every texture naming the image).
-    images: HashMap<usize, Arc<Image>>,
+    /// Decoded glTF images by source (`view N`, or the URI), shared by every texture whose
+    /// image names the same source.
+    images: HashMap<String, Arc<Image>>,
     out: GltfFile,
 }
 
@@ -398,13 +540,17 @@ impl Reader<'_> {
         }
         let image = texture.source();
         let index = image.index();
-        let decoded = match self.images.get(&index) {
+        let key = match image.source() {
+            gltf::image::Source::View { view, .. } => format!("view {}", view.index()),
+            gltf::image::Source::Uri { uri, .. } => uri.to_string(),
+        };
+        let decoded = match self.images.get(&key) {
             Some(decoded) => decoded.clone(),
             None => {
                 let decoded = self
                     .image(&image)
                     .map_err(|e| format!("{what}: texture {}: image {index}: {e}", texture.index()))?;
-                self.images.insert(index, decoded.clone());
+                self.images.insert(key, decoded.clone());
                 decoded
             }
         };
@@ -429,16 +575,10 @@ impl Reader<'_> {
                 Ok(Arc::new(Image::decode(bytes, &format!("buffer view {}", view.index()))?))
             }
             gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
-                let bytes = read_uri(uri, self.base, &mut Vec::new())?;
-                Ok(Arc::new(Image::decode(&bytes, "its data: URI")?))
+                Ok(Arc::new(Image::decode(&data_uri(uri)?, "its data: URI")?))
             }
             gltf::image::Source::Uri { uri, .. } => {
-                let decoded =
-                    urlencoding::decode(uri).map_err(|_| format!("URI {uri:?} is not valid percent-encoding"))?;
-                let file = self.base.join(decoded.as_ref());
-                if !file.is_file() {
-                    return Err(format!("{}: no such file", file.display()));
-                }
+                let file = uri_file(uri, self.base)?;
                 let image = open_shared(&file)?;
                 self.out.files.push(file);
                 Ok(image)
@@ -447,7 +587,7 @@ impl Reader<'_> {
     }
 
     fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8], String> {
-        let buffer = &self.buffers[view.buffer().index()];
+        let buffer: &[u8] = &self.buffers[view.buffer().index()];
         let (start, length) = (view.offset(), view.length());
         start.checked_add(length).and_then(|end| buffer.get(start..end)).ok_or_else(|| {
             format!(
@@ -504,17 +644,9 @@ impl Reader<'_> {
         }
     }
 
-    fn node(
-        &mut self,
-        node: &gltf::Node,
-        parent: &Transform,
-        depth: usize,
-        meshes: &mut [Option<Mesh>],
-    ) -> Result<(), String> {
+    /// Places `node` and its children (a forest, [`check_hierarchy`] made sure).
+    fn node(&mut self, node: &gltf::Node, parent: &Transform, meshes: &mut [Option<Mesh>]) -> Result<(), String> {
         let what = format!("node {}", node.index());
-        if depth > MAX_NODE_DEPTH {
-            return Err(format!("{what}: the node hierarchy is deeper than {MAX_NODE_DEPTH} (a cycle?)"));
-        }
         let local = match node.transform() {
             gltf::scene::Transform::Matrix { matrix } => DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from))),
             gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
@@ -552,7 +684,7 @@ impl Reader<'_> {
             self.light(&light, &world, &what)?;
         }
         for child in node.children() {
-            self.node(&child, &world, depth + 1, meshes)?;
+            self.node(&child, &world, meshes)?;
         }
         Ok(())
     }
@@ -623,7 +755,7 @@ impl Reader<'_> {
             let f32v3 = (&[DataType::F32][..], &[Dimensions::Vec3][..]);
             self.check_accessor(&positions, f32v3.0, f32v3.1, &format!("{what} POSITION"))?;
             let buffers = self.buffers;
-            let reader = primitive.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+            let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
             let first = out.positions.len();
             let p: Vec<Vec3> = reader.read_positions().into_iter().flatten().map(Vec3::from).collect();
             let n = p.len();

@@ -28,7 +28,7 @@
 //! | `d a` / `Tr t` (`d` wins; `Tr` = 1 − `d`) | `transmission` = 1 − d (grey) when d < 1 |
 //! | `Tf r g b` | `transmission` of glass (illum 4, 6, 7, 9) |
 //! | `Ke r g b` | `emission` |
-//! | `map_Kd file` | `diffuse` = the image ([`crate::texture`]: sRGB-decoded, bilinear, repeating) times `Kd` (1 when not given); the file relative to the MTL file's folder (`\\` read as `/`); a missing file: a warning, and the surface keeps `Kd`; a file that is not an image: an error at its line; with options (`-s`, `-o`, …): ignored with the warning below |
+//! | `map_Kd file` | `diffuse` = the image ([`crate::texture`]: sRGB-decoded, bilinear, repeating) times `Kd` (1 when not given); the file relative to the MTL file's folder (`\\` read as `/`); a missing file, or one that is not an image: an error at its line; with options (`-s`, `-o`, …): ignored with the warning below |
 //! | `Ka`, other `map_*`, `bump`, `disp`, `refl`, … | ignored (ambient is the scene's; one warning) |
 //!
 //! | `illum` | meaning in strahl |
@@ -370,9 +370,11 @@ impl<'p> Reader<'p> {
                 // Each library is read and parsed once, however often `mtllib` names it; its
                 // materials are applied at every naming, so later definitions still win.
                 if !parsed.contains_key(&file) {
-                    // A library that cannot be read is an error at the `mtllib` line naming it.
+                    // A library that cannot be read or parsed (a texture it names missing) is an
+                    // error at the `mtllib` line naming it.
                     let data = super::mesh::read_file(&file).map_err(|e| MeshError::at(path, *line, e.to_string()))?;
-                    let library = parse_mtl(&file, &data, &mut warnings)?;
+                    let library = parse_mtl(&file, &data, &mut warnings)
+                        .map_err(|e| MeshError::at(path, *line, e.to_string()))?;
                     parsed.insert(file.clone(), library);
                 }
                 for m in parsed[&file].iter().cloned() {
@@ -649,18 +651,9 @@ pub fn parse_mtl(path: &Path, data: &[u8], warnings: &mut Vec<String>) -> Result
                 // Files written on Windows name textures with backslashes (`.\\wood.jpg`).
                 let name = String::from_utf8_lossy(rest_of(line, keyword)).replace('\\', "/");
                 let file = path.parent().unwrap_or(Path::new("")).join(&name);
-                // A path that exists but is no regular file (a FIFO, /dev/zero) is an error there.
-                if file.exists() {
-                    block.map_kd = Some(crate::texture::open_shared(&file).map_err(|e| at(format!("map_Kd: {e}")))?);
-                } else {
-                    // Meshes are often passed on without their textures (as Blender and assimp
-                    // do, the surface keeps its Kd colour, with a warning).
-                    warnings.push(format!(
-                        "{}:{line_no}: map_Kd: {} does not exist; the material keeps its Kd colour",
-                        path.display(),
-                        file.display()
-                    ));
-                }
+                // A missing file is an error too: on a farm it is almost always a broken upload,
+                // and a render without its texture would be wrong without saying so.
+                block.map_kd = Some(crate::texture::open_shared(&file).map_err(|e| at(format!("map_Kd: {e}")))?);
             }
             other => ignored.add(show(other), line_no),
         }
