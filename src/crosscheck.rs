@@ -263,6 +263,11 @@ pub fn run<A: Accel, B: Accel>(
     n: usize,
     seed: u64,
 ) -> Result<Report, TraceError> {
+    // The rays are made from the scene's bounds and camera: they must be inside the range
+    // both backends trace (a sphere of radius 3e38 has no finite bounds to draw rays in).
+    if let Some((object, problem)) = crate::scene::magnitude::problem(scene) {
+        return Err(TraceError::InvalidScene(format!("{object}: {problem}")));
+    }
     let rays = workload::rays(scene, kind, n, seed, a)?;
     compare(scene, a, b, &rays)
 }

@@ -289,6 +289,9 @@ pub fn check_scene(scene: &Scene) -> Result<(), TraceError> {
             return bad(format!("plane {i}"), problem);
         }
     }
+    if let Some((object, problem)) = crate::scene::magnitude::problem(scene) {
+        return bad(object, problem);
+    }
     Ok(())
 }
 

@@ -11,6 +11,7 @@ pub mod file;
 pub mod gltf;
 pub mod hash;
 pub mod instance;
+pub mod magnitude;
 pub mod mesh;
 pub mod procedural;
 pub mod subdivide;
