@@ -1,7 +1,8 @@
-//! The range of numbers strahl traces (`strahl::scene::magnitude`, docs/scene-format.md "Range
-//! of numbers"), through the `strahl` binary: scenes whose rays Embree aborted on are refused
-//! by both backends alike with one line naming the object, and scenes at the edge of the range
-//! render on both backends alike. A run killed by a signal (Embree's assertion aborts) fails.
+//! The range of numbers strahl takes, through the `strahl` binary: the range it traces
+//! (`strahl::scene::magnitude`, docs/scene-format.md "Range of numbers"), where scenes whose
+//! rays Embree aborted on are refused by both backends alike with one line naming the object
+//! and scenes at the edge of the range render on both backends alike (a run killed by a
+//! signal, as Embree's assertion aborts, fails); and numbers of the command line that panicked.
 
 mod common;
 
@@ -156,4 +157,43 @@ fn scenes_at_the_edge_of_the_range_render_alike_on_both_backends() {
     let images = render_both(&dir, "edge", &text);
     assert!(images[0].iter().flatten().all(|x| x.is_finite()));
     assert_eq!(images[0], images[1], "both backends give the same image");
+}
+
+#[test]
+fn checkpoint_intervals_without_a_duration_are_refused_in_one_line() {
+    // 1e20 s has no Duration: Duration::from_secs_f64 panicked.
+    let dir = TempDir::new("range-checkpoint");
+    let path = dir.write("s.toml", scene("eye = [0, 1, 5]\ntarget = [0, 0, 0]", ""));
+    let out = dir.path("out.exr");
+    for (every, shown) in [("1e20", "1e20"), ("2e9", "2e9"), ("-1", "-1"), ("nan", "NaN"), ("inf", "inf")] {
+        let args = ["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--checkpoint-every", every];
+        let e = fails(&dir, &args);
+        assert!(e.ends_with(&format!("--checkpoint-every {shown} is not a number of seconds from 0 to 1e9")), "{e}");
+    }
+}
+
+#[test]
+fn more_threads_than_cores_are_cut_to_the_cores_with_a_note() {
+    // 4096 rayon workers on 2 cores took 50 s for an 8 × 8 image: idle workers steal from each other.
+    let dir = TempDir::new("range-threads");
+    let path = dir.write(
+        "s.toml",
+        scene("eye = [0, 1, 5]\ntarget = [0, 0, 0]", "").replace("width = 16\nheight = 12", "width = 8\nheight = 8"),
+    );
+    let cores = std::thread::available_parallelism().unwrap().get();
+    for backend in BACKENDS {
+        let out = dir.path(&format!("{backend}.exr"));
+        let args =
+            ["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--threads", "4096", "--backend", backend];
+        let run = strahl(&args);
+        assert_eq!(run.status.code(), Some(0), "{}", text_of(&run));
+        let note = format!("note: --threads 4096 is more than the {cores} cores this process may use: using {cores}\n");
+        assert!(text(&run.stderr).starts_with(&note), "{}", text(&run.stderr));
+        let threads = format!(", {cores} thread{}\n", if cores == 1 { "" } else { "s" });
+        assert!(
+            text(&run.stdout).lines().next().is_some_and(|l| format!("{l}\n").ends_with(&threads)),
+            "{}",
+            text(&run.stdout)
+        );
+    }
 }

@@ -162,9 +162,21 @@ impl CrosscheckKind {
     }
 }
 
-/// The number of threads to use: `requested`, or one per core.
+/// The number of threads to use: one per core this process may run on (its affinity and
+/// cgroup quota, as [`std::thread::available_parallelism`] reads them), or `requested` if that
+/// is fewer. More would only wait for each other: an idle rayon worker tries to steal from
+/// every other one, so the waiting grows with the square of the count (`--threads 4096` took
+/// 50 s on 2 cores for an 8 × 8 image); a note says so.
 fn thread_count(requested: Option<usize>) -> usize {
-    requested.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match requested {
+        Some(t) if t > cores => {
+            eprintln!("note: --threads {t} is more than the {cores} cores this process may use: using {cores}");
+            cores
+        }
+        Some(t) => t,
+        None => cores,
+    }
 }
 
 /// A rayon pool of `threads` workers, each with flush-to-zero on as Embree asks.

@@ -237,12 +237,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
     refuse_over_budget(&args, &scene, region)?;
 
-    if !(args.checkpoint_every.is_finite() && args.checkpoint_every >= 0.0) {
-        bail!("--checkpoint-every {} is not a number of seconds (0 or more)", args.checkpoint_every);
-    }
+    // At most about 32 years: a larger float has no Duration (from_secs_f64 panicked on 1e20).
+    let x = args.checkpoint_every;
+    let every = Duration::try_from_secs_f64(x).ok().filter(|d| d.as_secs_f64() <= 1e9).with_context(|| {
+        let shown = if x.abs() < 1e9 { x.to_string() } else { format!("{x:e}") };
+        format!("--checkpoint-every {shown} is not a number of seconds from 0 to 1e9")
+    })?;
     let checkpointing = Checkpointing {
         path: checkpoint::path_for(&args.output),
-        every: Duration::from_secs_f64(args.checkpoint_every),
+        every,
         resume: args.resume,
         key: checkpoint::key(&scene, region, args.backend.name()),
     };
