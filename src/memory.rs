@@ -1,6 +1,7 @@
 //! The memory budget: what a render will need, estimated from the loaded scene and the image
 //! before anything large is allocated (the BVHs, the film, the output), so that a render that
-//! cannot fit is refused up front instead of taking a farm node down.
+//! cannot fit is refused up front instead of taking a farm node down; and the budget itself,
+//! `--max-memory`, by default the smallest limit the process runs under ([`default_limit`]).
 //!
 //! ```text
 //! total = base + geometry + textures + BVH + film + output
@@ -8,11 +9,21 @@
 //!
 //! - **base**: [`BASE_BYTES`], the process, Embree's device and the thread pool.
 //! - **geometry**: the scene's arrays as they are (positions, indices, normals, colours, texture
-//!   coordinates, per-triangle materials; spheres, planes, instances), counted exactly.
+//!   coordinates, per-triangle materials; spheres, planes, instances), counted exactly, and
+//!   every name the scene holds (one per sphere of a `random_spheres` object) at
+//!   [`STRING_BYTES`] plus its length.
 //! - **textures**: the decoded texels, 12 bytes each, every image once.
-//! - **BVH**: [`BVH_BYTES_PER_PRIMITIVE`] per triangle (meshes and prototypes, each once) and per
-//!   sphere, [`BVH_BYTES_PER_INSTANCE`] per instance: measured on the Stanford dragon (871,306
-//!   triangles): Embree's BVH 48 MB, the native one 43 MB, i.e. 55 and 49 bytes per triangle.
+//! - **BVH**: the peak of either backend's build, which holds its temporaries and the finished
+//!   tree at once: [`TRIANGLE_BUILD_BYTES`] per triangle (meshes and prototypes, each once),
+//!   [`SPHERE_BUILD_BYTES`] per sphere, [`MESH_BUILD_BYTES`] per mesh and
+//!   [`BVH_BYTES_PER_INSTANCE`] per instance, plus Embree's own copy of every vertex and index
+//!   buffer (12 bytes per vertex and per triangle). Measured (peak RSS, `/usr/bin/time`, 2
+//!   threads) with 1 to 6 Stanford dragons (871,306 triangles each) as separate meshes: every
+//!   dragon adds 124.8 MB to Embree's peak and 108.7 MB to the native one's, of which 19.6 MB
+//!   are its arrays once loaded: 121 and 102 bytes per triangle beyond the geometry (Embree's
+//!   includes its 18-byte copy). 2,000,000 random spheres: 218 and 175 bytes per sphere in
+//!   all, 68 of them the sphere and its name. 50,000 one-triangle meshes: about 600 bytes per
+//!   Embree geometry. (The finished trees alone are smaller: 55 and 49 bytes per triangle.)
 //! - **film**: 4 bytes per float per pixel of the region, over every pass (RGBA, Z, N, albedo,
 //!   and the AOVs with their floats per pixel, Cryptomatte included).
 //! - **output**: a quarter of the film (the compressed EXR blocks kept while rendering, at most
@@ -22,16 +33,22 @@
 //!   441 MB peak against 136 MB at 1920 × 1080, 53 bytes per pixel in all; 16384 × 16384,
 //!   12.0 GB, 44.6 bytes per pixel.
 //!
+//! The parts are added although the BVH's temporaries are freed before the film is made: the
+//! sum errs high. Six dragons at 320 × 240: estimated 850 MB, peak 760 MB (Embree) and 677 MB
+//! (native); `tests/memory.rs` checks the estimate against the peak of real renders.
+//!
 //! Nothing here grows with the sample count: samples are accumulated into the film's pixel as
 //! they are drawn, and Cryptomatte's per-pixel id counts live on the rendering thread for one
 //! pixel at a time (at most `spp` entries, bounded by the `spp` cap). So `spp × pixels` costs
 //! time, not memory; the time is shown by the progress bar, and a long render can be stopped
 //! and resumed (`--checkpoint-every`, `--resume`).
 //!
-//! The estimate errs high; it does not count the load's transient buffers (bounded by the
-//! file limits of [`crate::io::read`]).
+//! Not counted: the load's transient buffers (a mesh file's bytes while it is parsed, an image
+//! file's while it is decoded; bounded by the file limits of [`crate::io::read`]), freed
+//! before the budget is checked, and whatever grows with the thread count beyond the base.
 
 use std::collections::HashSet;
+use std::path::{Path, PathBuf};
 
 use crate::material::Texture;
 use crate::passes::Pass;
@@ -39,10 +56,20 @@ use crate::scene::Scene;
 
 /// The process, Embree's device and the thread pool (measured: 30–37 MB for the smallest scene).
 pub const BASE_BYTES: u64 = 40 << 20;
-/// BVH memory per triangle or sphere (measured 49–55 on the dragon, rounded up).
-pub const BVH_BYTES_PER_PRIMITIVE: u64 = 64;
+/// The peak of a BVH build per triangle, beyond the scene's arrays and Embree's copy of them
+/// (measured 103 for Embree, 102 for the native BVH, on the dragon; rounded up).
+pub const TRIANGLE_BUILD_BYTES: u64 = 112;
+/// The peak of a BVH build per sphere, beyond the sphere and its name (measured 150 for
+/// Embree's user geometry, 107 for the native BVH; rounded up).
+pub const SPHERE_BUILD_BYTES: u64 = 160;
+/// Per mesh (and prototype): Embree's geometry object and buffers' headers, the native BVH's
+/// records (measured about 600 bytes per mesh with Embree).
+pub const MESH_BUILD_BYTES: u64 = 1 << 10;
 /// BVH memory per instance (the top level's node and the instance record).
 pub const BVH_BYTES_PER_INSTANCE: u64 = 256;
+/// A string's own bytes besides its text: the `String` (24) and the allocator's header and
+/// rounding (up to 24).
+pub const STRING_BYTES: u64 = 48;
 /// The output's fixed part (encoder state, compression buffers per thread).
 pub const OUTPUT_BASE_BYTES: u64 = 16 << 20;
 
@@ -89,7 +116,9 @@ pub fn megabytes(n: u64) -> String {
 /// The estimate for rendering `pixels` pixels (the region) of `scene`.
 pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
     let size = |n: usize, each: usize| (n * each) as u64;
+    let text = |s: &String| STRING_BYTES + s.len() as u64;
     let meshes = scene.meshes.iter().chain(&scene.prototypes);
+    let names = &scene.names;
     let geometry = meshes
         .clone()
         .map(|m| {
@@ -99,11 +128,15 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
                 + m.colors.as_ref().map_or(0, |v| size(v.len(), 12))
                 + m.uvs.as_ref().map_or(0, |v| size(v.len(), 8))
                 + m.triangle_materials.as_ref().map_or(0, |v| size(v.len(), 4))
+                + text(&m.name)
         })
         .sum::<u64>()
         + size(scene.spheres.len(), std::mem::size_of::<crate::geometry::Sphere>())
         + size(scene.planes.len(), std::mem::size_of::<crate::geometry::Plane>())
-        + size(scene.instances.len(), std::mem::size_of::<crate::scene::Instance>());
+        + size(scene.instances.len(), std::mem::size_of::<crate::scene::Instance>())
+        + scene.instances.iter().map(|i| text(&i.name)).sum::<u64>()
+        + scene.materials.iter().map(|m| text(&m.name)).sum::<u64>()
+        + names.meshes.iter().chain(&names.spheres).chain(&names.planes).map(text).sum::<u64>();
     let mut seen = HashSet::new();
     let textures = scene
         .materials
@@ -113,8 +146,14 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
             _ => None,
         })
         .sum();
-    let primitives = meshes.map(|m| m.indices.len() as u64).sum::<u64>() + scene.spheres.len() as u64;
-    let bvh = primitives * BVH_BYTES_PER_PRIMITIVE + scene.instances.len() as u64 * BVH_BYTES_PER_INSTANCE;
+    let triangles = meshes.clone().map(|m| m.indices.len() as u64).sum::<u64>();
+    let vertices = meshes.clone().map(|m| m.positions.len() as u64).sum::<u64>();
+    let embree_copy = 12 * (vertices + triangles);
+    let bvh = triangles * TRIANGLE_BUILD_BYTES
+        + scene.spheres.len() as u64 * SPHERE_BUILD_BYTES
+        + meshes.count() as u64 * MESH_BUILD_BYTES
+        + scene.instances.len() as u64 * BVH_BYTES_PER_INSTANCE
+        + embree_copy;
     let floats: u64 = scene
         .output
         .passes
@@ -131,6 +170,22 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
     Estimate { base: BASE_BYTES, geometry, textures, bvh, film, output: film / 4 + OUTPUT_BASE_BYTES }
 }
 
+/// The default `--max-memory` and what set it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Limit {
+    pub bytes: u64,
+    /// `3/4 of physical memory, 25277 MB`, `the cgroup memory limit in /sys/fs/cgroup/job/memory.max`,
+    /// `RLIMIT_AS 4295 MB less 940 MB of address space kept for threads and Embree`.
+    pub source: String,
+}
+
+impl std::fmt::Display for Limit {
+    /// `4295 MB (the cgroup memory limit in /sys/fs/cgroup/job/memory.max)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({})", megabytes(self.bytes), self.source)
+    }
+}
+
 /// The machine's physical memory (`MemTotal` of `/proc/meminfo`), if it can be read.
 pub fn physical_memory() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
@@ -139,10 +194,133 @@ pub fn physical_memory() -> Option<u64> {
     Some(kib * 1024)
 }
 
-/// The default `--max-memory`: three quarters of the physical memory (the rest for the system
-/// and the render's own transient buffers), or no limit when it cannot be read.
-pub fn default_limit() -> Option<u64> {
-    physical_memory().map(|m| m / 4 * 3)
+/// Address space a render reserves beyond what it touches, which an `RLIMIT_AS` must leave
+/// room for: per core, a thread's stack and malloc arena (64 MiB each).
+pub const ADDRESS_SPACE_PER_CORE: u64 = 64 << 20;
+/// The same, for the process (TBB's and Embree's reservations). Measured with `prlimit --as`:
+/// one dragon (133 MB peak RSS) needs 800 MB of address space with Embree on 2 cores, six
+/// (760 MB) 1.5 GB; the native backend reserves about 250 MB less.
+pub const ADDRESS_SPACE_BASE: u64 = 768 << 20;
+
+/// The default `--max-memory`: the smallest of three quarters of the physical memory (the
+/// rest for the system and the render's transient buffers), the memory limit of the
+/// process's cgroup (`memory.max` in cgroup v2, `memory.limit_in_bytes` in v1, of its own
+/// cgroup and every one above it: Slurm's `--mem`), and its `RLIMIT_AS` or `RLIMIT_DATA` less
+/// the address space a render reserves ([`ADDRESS_SPACE_BASE`], [`ADDRESS_SPACE_PER_CORE`]);
+/// `None` when none can be read.
+pub fn default_limit() -> Option<Limit> {
+    let physical = physical_memory()
+        .map(|m| Limit { bytes: m / 4 * 3, source: format!("3/4 of physical memory, {}", megabytes(m)) });
+    let read = |path: &Path| std::fs::read_to_string(path).ok();
+    let cgroup = match (read(Path::new("/proc/self/cgroup")), read(Path::new("/proc/self/mountinfo"))) {
+        (Some(cgroups), Some(mounts)) => cgroup_limit(&cgroups, &mounts, &read)
+            .map(|(bytes, file)| Limit { bytes, source: format!("the cgroup memory limit in {}", file.display()) }),
+        _ => None,
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as u64;
+    let reserve = ADDRESS_SPACE_BASE + cores * ADDRESS_SPACE_PER_CORE;
+    let rlimit = read(Path::new("/proc/self/limits")).and_then(|l| rlimit(&l)).map(|(name, bytes)| Limit {
+        bytes: bytes.saturating_sub(reserve),
+        source: format!(
+            "{name} {} less {} of address space kept for threads and Embree",
+            megabytes(bytes),
+            megabytes(reserve)
+        ),
+    });
+    [physical, cgroup, rlimit].into_iter().flatten().min_by_key(|l| l.bytes)
+}
+
+/// The smallest memory limit of the cgroups of the process and above, and the file that says
+/// so: `cgroups` is `/proc/self/cgroup` (`0::/PATH` in v2, `N:memory:/PATH` in v1), `mounts`
+/// `/proc/self/mountinfo` (where each hierarchy is mounted, and which of its cgroups is the
+/// mount's root), `read` reads a file of the cgroup file system.
+pub fn cgroup_limit(cgroups: &str, mounts: &str, read: &dyn Fn(&Path) -> Option<String>) -> Option<(u64, PathBuf)> {
+    let mut best: Option<(u64, PathBuf)> = None;
+    for line in cgroups.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (Some(_), Some(controllers), Some(path)) = (parts.next(), parts.next(), parts.next()) else { continue };
+        let (fs, file) = if controllers.is_empty() {
+            ("cgroup2", "memory.max")
+        } else if controllers.split(',').any(|c| c == "memory") {
+            ("cgroup", "memory.limit_in_bytes")
+        } else {
+            continue;
+        };
+        for (root, mount_point) in cgroup_mounts(mounts, fs) {
+            // The process's cgroup as a folder of this mount (its root may be a cgroup below
+            // the hierarchy's, as in a container).
+            let Ok(below) = Path::new(path).strip_prefix(&root) else { continue };
+            let mut dir = mount_point.join(below);
+            loop {
+                let limit = read(&dir.join(file)).and_then(|t| parse_limit(&t));
+                if let Some(bytes) = limit.filter(|&b| best.as_ref().is_none_or(|(least, _)| b < *least)) {
+                    best = Some((bytes, dir.join(file)));
+                }
+                if dir == mount_point || !dir.pop() {
+                    break;
+                }
+            }
+        }
+    }
+    best
+}
+
+/// The mounts of cgroup file system `fs` (`cgroup2`, or `cgroup` with the memory controller)
+/// in `/proc/self/mountinfo`: (the cgroup at the mount's root, where it is mounted).
+fn cgroup_mounts(mounts: &str, fs: &str) -> Vec<(PathBuf, PathBuf)> {
+    mounts
+        .lines()
+        .filter_map(|line| {
+            let (left, right) = line.split_once(" - ")?;
+            let left: Vec<&str> = left.split(' ').collect();
+            let right: Vec<&str> = right.split(' ').collect();
+            let memory = fs == "cgroup2" || right.get(2)?.split(',').any(|o| o == "memory");
+            if right.first() != Some(&fs) || !memory {
+                return None;
+            }
+            Some((PathBuf::from(unescape(left.get(3)?)), PathBuf::from(unescape(left.get(4)?))))
+        })
+        .collect()
+}
+
+/// A mountinfo path with its octal escapes (`\040` for a space) decoded.
+fn unescape(field: &str) -> String {
+    let bytes = field.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let octal =
+            bytes.get(i + 1..i + 4).filter(|d| bytes[i] == b'\\' && d.iter().all(|c| (b'0'..=b'7').contains(c)));
+        match octal {
+            Some(d) => {
+                out.push(d.iter().fold(0u8, |n, c| n.wrapping_mul(8) + (c - b'0')));
+                i += 4;
+            }
+            None => {
+                out.push(bytes[i]);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// A cgroup memory limit file's value: bytes, or `None` for no limit (v2 `max`; v1's
+/// "unlimited" is the largest page-aligned `i64`, anything from 2⁶² on is taken as none).
+fn parse_limit(text: &str) -> Option<u64> {
+    text.trim().parse::<u64>().ok().filter(|&b| b < 1 << 62)
+}
+
+/// The smaller of the soft `RLIMIT_AS` and `RLIMIT_DATA` of `/proc/self/limits`, and its name.
+fn rlimit(limits: &str) -> Option<(&'static str, u64)> {
+    let soft = |prefix: &str| -> Option<u64> {
+        let line = limits.lines().find(|l| l.starts_with(prefix))?;
+        line[prefix.len()..].split_whitespace().next()?.parse().ok()
+    };
+    [("RLIMIT_AS", soft("Max address space")), ("RLIMIT_DATA", soft("Max data size"))]
+        .into_iter()
+        .filter_map(|(name, b)| Some((name, b?)))
+        .min_by_key(|&(_, b)| b)
 }
 
 /// Parses a size: a number of bytes with an optional suffix `K`, `M`, `G`, `T` (powers of
@@ -195,11 +373,61 @@ mod tests {
             ..Mesh::default()
         });
         let e = estimate(&scene, 1920 * 1080);
-        assert_eq!(e.geometry, 3 * 12 + 1000 * 12 + 3 * 12);
-        assert_eq!(e.bvh, 1000 * BVH_BYTES_PER_PRIMITIVE);
+        assert_eq!(e.geometry, 3 * 12 + 1000 * 12 + 3 * 12 + STRING_BYTES);
+        assert_eq!(e.bvh, 1000 * TRIANGLE_BUILD_BYTES + MESH_BUILD_BYTES + 12 * (3 + 1000));
         // Default passes: RGBA, Z, N, albedo: 11 floats per pixel.
         assert_eq!(e.film, 1920 * 1080 * 44);
         assert_eq!(e.output, e.film / 4 + OUTPUT_BASE_BYTES);
         assert_eq!(e.total(), e.base + e.geometry + e.bvh + e.film + e.output);
+    }
+
+    /// A fake cgroup file system: `files` by path.
+    fn reader(files: &[(&str, &str)]) -> impl Fn(&Path) -> Option<String> {
+        let files: Vec<(PathBuf, String)> = files.iter().map(|(p, t)| (PathBuf::from(p), t.to_string())).collect();
+        move |path: &Path| files.iter().find(|(p, _)| p == path).map(|(_, t)| t.clone())
+    }
+
+    #[test]
+    fn the_smallest_cgroup_limit_up_the_hierarchy_is_found_in_v1_and_v2() {
+        // cgroup v2 alone, as systemd and Slurm set it up: the job's limit is below its step's.
+        let cgroups = "0::/system.slice/slurmstepd.scope/job_7/step_0/user/task_0\n";
+        let mounts = "30 23 0:26 / /sys/fs/cgroup rw,nosuid - cgroup2 cgroup2 rw,nsdelegate\n";
+        let base = "/sys/fs/cgroup/system.slice/slurmstepd.scope/job_7";
+        let files = [
+            (format!("{base}/step_0/user/task_0/memory.max"), "max\n"),
+            (format!("{base}/step_0/memory.max"), "8589934592\n"),
+            (format!("{base}/memory.max"), "4294967296\n"),
+            ("/sys/fs/cgroup/system.slice/memory.max".to_string(), "max\n"),
+        ];
+        let files: Vec<(&str, &str)> = files.iter().map(|(p, t)| (p.as_str(), *t)).collect();
+        let found = cgroup_limit(cgroups, mounts, &reader(&files));
+        assert_eq!(found, Some((4 << 30, PathBuf::from(format!("{base}/memory.max")))));
+
+        // Hybrid (v1 memory controller, an empty v2 hierarchy), the mount's root a cgroup
+        // below the hierarchy's (a container), with a space in a folder's name.
+        let cgroups = "9:name=systemd:/\n4:memory,hugetlb:/docker/ab c/job\n0::/\n";
+        let mounts = "35 31 0:32 /docker/ab\\040c /sys/fs/cgroup/memory rw - cgroup cgroup rw,memory,hugetlb\n\
+                      41 31 0:38 / /sys/fs/cgroup/unified rw - cgroup2 cgroup2 rw\n";
+        let files = [
+            ("/sys/fs/cgroup/memory/job/memory.limit_in_bytes", "9223372036854771712\n"),
+            ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "1073741824\n"),
+        ];
+        let found = cgroup_limit(cgroups, mounts, &reader(&files));
+        assert_eq!(found, Some((1 << 30, PathBuf::from("/sys/fs/cgroup/memory/memory.limit_in_bytes"))));
+
+        // No limit anywhere, or no memory hierarchy mounted.
+        assert_eq!(cgroup_limit(cgroups, mounts, &reader(&[])), None);
+        assert_eq!(cgroup_limit("4:memory:/a\n", "", &reader(&files)), None);
+    }
+
+    #[test]
+    fn the_smaller_of_the_address_space_and_data_limits_is_read() {
+        let limits = "Limit                     Soft Limit           Hard Limit           Units\n\
+                      Max data size             unlimited            unlimited            bytes\n\
+                      Max address space         4294967296           unlimited            bytes\n";
+        assert_eq!(rlimit(limits), Some(("RLIMIT_AS", 4 << 30)));
+        let both = limits.replace("Max data size             unlimited", "Max data size             2147483648");
+        assert_eq!(rlimit(&both), Some(("RLIMIT_DATA", 2 << 30)));
+        assert_eq!(rlimit(&limits.replace("4294967296", "unlimited")), None);
     }
 }

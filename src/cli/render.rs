@@ -52,7 +52,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
     /// Refuse, before building anything, a render whose estimated memory (as `strahl info`
-    /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: 3/4 of physical memory].
+    /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: the smallest of 3/4 of
+    /// physical memory, the cgroup's memory limit and RLIMIT_AS less a reserve; `strahl info`
+    /// prints it].
     #[arg(long, value_name = "SIZE", value_parser = strahl::memory::parse_size)]
     max_memory: Option<u64>,
     /// Image width in pixels (overrides the scene's).
@@ -175,13 +177,14 @@ fn refuse_inputs_as_outputs(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Refuses a render whose estimated memory ([`strahl::memory::estimate`]) is over
-/// `--max-memory` (default 3/4 of the machine's memory), saying what it needs and what to do.
+/// `--max-memory` (default [`strahl::memory::default_limit`]), saying what it needs and what to do.
 fn refuse_over_budget(args: &RenderArgs, scene: &Scene, region: Region) -> anyhow::Result<()> {
     use strahl::memory::{default_limit, estimate, megabytes};
-    let Some(limit) = args.max_memory.or_else(default_limit) else { return Ok(()) };
+    let default = if args.max_memory.is_some() { None } else { default_limit() };
+    let Some(limit) = args.max_memory.or(default.as_ref().map(|d| d.bytes)) else { return Ok(()) };
     let needs = estimate(scene, region.pixel_count());
     if needs.total() > limit {
-        let whose = if args.max_memory.is_some() { "" } else { " (3/4 of this machine's memory)" };
+        let whose = default.map_or(String::new(), |d| format!(" (the default: {})", d.source));
         bail!(
             "{}: this render needs about {needs}, more than --max-memory {}{whose}: render a smaller image \
              (--width/--height), fewer passes (--passes), parts of it (--region or --tile, then strahl merge), \
