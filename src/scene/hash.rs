@@ -82,7 +82,10 @@ struct Feed {
 /// [`Weak`] to its image. While the `Weak` lives the image cannot change (`Arc::get_mut`
 /// refuses, `Arc::make_mut` moves it to a new allocation) and its address cannot be reused,
 /// so an image at a listed address, alive in the caller's hands, is the one hashed.
-static TEXELS: LazyLock<Mutex<HashMap<usize, (Weak<Image>, u64)>>> = LazyLock::new(Default::default);
+static TEXELS: LazyLock<Mutex<Digests>> = LazyLock::new(Default::default);
+
+/// Texel digests by image address, each with a `Weak` that keeps the address ([`TEXELS`]).
+type Digests = HashMap<usize, (Weak<Image>, u64)>;
 
 /// The digest of `image`'s texels ([`digest`]), computed once per image and process (a render
 /// fingerprints its scene before and after rendering; materials share images).
@@ -266,7 +269,8 @@ mod tests {
             let Texture::Image(t) = &mut s.materials[0].diffuse else { unreachable!() };
             std::sync::Arc::make_mut(&mut t.image).texels[i].y += 1e-6;
         };
-        let changes: Vec<(&str, Box<dyn Fn(&mut Scene)>)> = vec![
+        type Change = Box<dyn Fn(&mut Scene)>;
+        let changes: Vec<(&str, Change)> = vec![
             ("spp", Box::new(|s| s.image.spp = 2)),
             ("transparent", Box::new(|s| s.output.transparent = true)),
             ("vertex", Box::new(|s| s.meshes[0].positions[0].x += 1e-6)),

@@ -224,7 +224,8 @@ mod tests {
             s.planes.push(Plane { normal: Vec3::Y, dist: -MAX_COORDINATE, material: 0 });
         });
         assert_eq!(at_bound, None);
-        let cases: [(&str, Box<dyn FnOnce(&mut Scene)>); 7] = [
+        type Edit = Box<dyn FnOnce(&mut Scene)>;
+        let cases: [(&str, Edit); 7] = [
             ("camera: eye [0, 1, 5e18]", Box::new(|s| s.camera.eye = Vec3::new(0.0, 1.0, 5e18))),
             ("camera: aperture 1e30", Box::new(|s| s.camera.lens.aperture = 1e30)),
             ("camera: focus_distance 2e9", Box::new(|s| s.camera.lens.focus_distance = 2e9)),
