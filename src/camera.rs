@@ -57,6 +57,9 @@ pub enum CameraError {
     FovOutOfRange(f32),
     #[error("camera: the image size {width}×{height} has no pixels")]
     EmptyImage { width: u32, height: u32 },
+    /// A point or length beyond the range strahl traces ([`crate::scene::magnitude`]).
+    #[error("camera: {0}")]
+    OutOfRange(String),
 }
 
 /// A pinhole camera for an image of `width × height` pixels.
@@ -117,6 +120,10 @@ impl Camera {
         let (aperture, focus) = (spec.lens.aperture as f64, spec.lens.focus_distance as f64);
         if !(aperture >= 0.0 && aperture.is_finite() && focus >= 0.0 && focus.is_finite()) {
             return Err(CameraError::NotFinite { what: "lens", value: format!("{:?}", spec.lens) });
+        }
+        // Rays from beyond the range would abort Embree (crate::scene::magnitude).
+        if let Some((_, problem)) = crate::scene::magnitude::camera_problem(spec) {
+            return Err(CameraError::OutOfRange(problem));
         }
         let focus = if focus > 0.0 { focus } else { back.length() };
         Ok(Camera { eye, u, v, w, l: -r, r, b: -t, t, width, height, aperture, focus })
@@ -245,6 +252,10 @@ mod tests {
         assert!(err(CameraSpec { eye: Vec3::new(f32::INFINITY, 0.0, 0.0), ..ok }, 1, 1).contains("eye"));
         assert!(err(CameraSpec { up: Vec3::ZERO, ..ok }, 1, 1).contains("parallel"));
         assert!(err(ok, 0, 3).contains("0×3"));
+        let far = err(CameraSpec { eye: Vec3::new(0.0, 1.0, 5e18), ..ok }, 1, 1);
+        assert!(far.starts_with("camera: eye [0, 1, 5e18] lies beyond ±1e9"), "{far}");
+        let wide = CameraSpec { lens: Lens { aperture: 1e30, focus_distance: 0.0 }, ..ok };
+        assert!(err(wide, 1, 1).starts_with("camera: aperture 1e30 is beyond ±1e9"));
         for e in [err(ok, 3, 0), err(CameraSpec { target: Vec3::Z, ..ok }, 1, 1)] {
             assert!(e.starts_with("camera: ") && !e.contains('\n'), "{e}");
         }

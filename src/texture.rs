@@ -27,8 +27,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, Weak};
 use std::time::SystemTime;
 
-use crate::sys::read::{Held, check_memory, remaining_memory};
 use crate::math::{Vec2, Vec3};
+use crate::sys::read::{Held, check_memory, remaining_memory};
 
 /// What a texture coordinate outside `[0, 1)` maps to (glTF sampler `wrapS`/`wrapT`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -119,6 +119,17 @@ fn unbacked(format: image::ImageFormat, bytes: &[u8], width: u32, height: u32) -
 }
 
 impl Image {
+    /// The image's name and size without its texels (to describe it without copying them).
+    pub fn without_texels(&self) -> Image {
+        Image {
+            name: self.name.clone(),
+            width: self.width,
+            height: self.height,
+            texels: Vec::new(),
+            held: Held::nothing(),
+        }
+    }
+
     /// An image of the given texels (`width·height` of them, row-major from the top-left),
     /// counted against the memory budget.
     pub fn from_texels(name: &str, width: usize, height: usize, texels: Vec<Vec3>) -> Result<Image, String> {

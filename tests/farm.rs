@@ -515,7 +515,7 @@ fn render_options_every_task_would_refuse_are_refused_before_anything_is_written
         (&["--tiles", "31"], &size, "--tiles 31 is more than the image's 30 rows"),
         (&[], &["--exposure", "inf"], "--exposure inf is not a finite number"),
         (&[], &["--checkpoint-every", "-1"], "--checkpoint-every -1 is not a number of seconds"),
-        (&[], &["--checkpoint-every", "1e20"], "--checkpoint-every 100000000000000000000 is not a number"),
+        (&[], &["--checkpoint-every", "1e20"], "-- --checkpoint-every 1e20 is not a number of seconds from 0 to 1e9"),
         (&[], &["--max-memory", "1K"], "more than -- --max-memory 1 MB"),
         (&["--partition", "a b"], &[], "--partition \"a b\": is not a Slurm partition name"),
         (&["--time", "30 minutes"], &[], "--time \"30 minutes\": is not a Slurm time limit"),

@@ -1,8 +1,10 @@
 //! Hostile input files, run through the `strahl` binary: special files, decompression bombs and
 //! headers whose counts no file can back are refused quickly, in little memory, with one line
-//! naming the file. Time and peak memory are measured on the child process (`/usr/bin/time`'s
-//! maximum resident set size, which is `getrusage` of the child), with generous bounds: they
-//! guard against a hang or a memory bomb, not a slowdown.
+//! naming the file. Peak memory is measured on the child process (`/usr/bin/time`'s maximum
+//! resident set size, which is `getrusage` of the child) with a generous bound, and a child still
+//! running after 20 s is killed and fails its test: they guard against a memory bomb and a hang,
+//! not a slowdown (no wall-clock bound: a loaded machine would fail it). That a bomb is refused
+//! early, before it has inflated, shows in the limit its error names.
 
 mod common;
 
@@ -17,7 +19,6 @@ use common::TempDir;
 struct Run {
     status: Option<i32>,
     stderr: String,
-    seconds: f64,
     /// Peak resident memory of the child, in MiB (`None` without `/usr/bin/time`).
     max_rss_mib: Option<f64>,
 }
@@ -49,28 +50,21 @@ fn run(dir: &TempDir, args: &[&str]) -> Run {
         std::thread::sleep(Duration::from_millis(5));
     }
     let out = child.wait_with_output().unwrap();
-    let seconds = start.elapsed().as_secs_f64();
     let max_rss_mib = std::fs::read_to_string(&rss_file)
         .ok()
         .and_then(|s| s.lines().last().and_then(|l| l.trim().parse::<f64>().ok()))
         .map(|kib| kib / 1024.0);
     let _ = std::fs::remove_file(&rss_file);
-    Run {
-        status: out.status.code(),
-        stderr: String::from_utf8_lossy(&out.stderr).trim_end().to_string(),
-        seconds,
-        max_rss_mib,
-    }
+    Run { status: out.status.code(), stderr: String::from_utf8_lossy(&out.stderr).trim_end().to_string(), max_rss_mib }
 }
 
-/// Runs `strahl info FILE` and checks it fails in under a second and 200 MiB with one line
-/// `error: FILE…`; returns that line.
+/// Runs `strahl info FILE` and checks it fails (before the 20 s kill) in under 200 MiB with one
+/// line `error: FILE…`; returns that line.
 fn refused_quickly(dir: &TempDir, file: &Path) -> String {
     let r = run(dir, &["info", file.to_str().unwrap()]);
     assert_eq!(r.status, Some(1), "{file:?}: {}", r.stderr);
     assert_eq!(r.stderr.lines().count(), 1, "{:?}", r.stderr);
     assert!(r.stderr.starts_with(&format!("error: {}", file.display())), "{}", r.stderr);
-    assert!(r.seconds < 1.0, "{file:?} took {:.2} s", r.seconds);
     if let Some(mib) = r.max_rss_mib {
         assert!(mib < 200.0, "{file:?} took {mib:.0} MiB");
     }
@@ -539,7 +533,7 @@ fn the_memory_estimate_bounds_the_render_and_max_memory_refuses_beyond_it() {
         "{}",
         r.stderr
     );
-    assert!(r.seconds < 1.0 && !out.exists());
+    assert!(!out.exists());
     assert_eq!(dir.entries().iter().filter(|e| e.ends_with(".tmp")).count(), 0);
 
     // A real render stays under its estimate.

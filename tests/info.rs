@@ -18,6 +18,8 @@ fn info(scene: &Path) -> (Vec<String>, String) {
     let last = lines.pop().unwrap();
     let ms = last.strip_prefix("load time: ").and_then(|l| l.strip_suffix(" ms")).expect("the load time comes last");
     assert!(ms.parse::<f64>().is_ok_and(|ms| ms >= 0.0), "{last}");
+    let default = lines.pop().unwrap();
+    assert!(default.starts_with("default --max-memory: "), "the default budget before it: {default}");
     let memory = lines.pop().unwrap();
     let parts = memory.strip_prefix("memory estimate: ").expect("the memory estimate before it");
     let mb = |s: &str| s.trim_end_matches(',').parse::<u64>().unwrap();

@@ -145,5 +145,5 @@ fn a_jobs_settings_are_checked_against_its_scene() {
     output.exr = path.with_extension("exr");
     output.checkpoint_every = f64::NAN;
     let nan = Settings { output: Some(output), ..settings(Backend::Embree) };
-    assert_eq!(err(nan), "--checkpoint-every NaN is not a number of seconds (0 or more)");
+    assert_eq!(err(nan), "--checkpoint-every NaN is not a number of seconds from 0 to 1e9");
 }

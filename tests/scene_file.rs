@@ -333,11 +333,15 @@ fn degenerate_cameras_are_refused() {
     assert_at(&e, 4, "camera: up [0, 1, 0] is parallel to the view direction");
     let e = error("[camera]\neye = [1, 2, 3]\ntarget = [1, 2, 3]\nfov_deg = 40\n");
     assert_at(&e, 3, "eye and target are both [1, 2, 3]");
-    // Finite but too far apart for f32: the reason is the distance, not a missing direction.
+    // Finite in f32 but beyond the range strahl traces (docs/scene-format.md).
     let e = error("[camera]\neye = [3e38, 0, 0]\ntarget = [-3e38, 0, 0]\nfov_deg = 40\n");
-    assert_at(&e, 2, "are too far apart: their distance overflows f32");
-    let e = error("[camera]\neye = [3e38, 0, 0]\ntarget = [0, 0, 0]\nfov_deg = 40\n");
-    assert_at(&e, 2, "are too far apart: their distance overflows f32");
+    assert_at(&e, 2, "camera: eye [3e38, 0, 0] lies beyond ±1e9, the range strahl traces");
+    let e = error("[camera]\neye = [0, 0, 0]\ntarget = [0, 0, -5e18]\nfov_deg = 40\n");
+    assert_at(&e, 3, "camera: target [0, 0, -5e18] lies beyond ±1e9, the range strahl traces");
+    let e = error("[camera]\neye = [0, 1, 5]\ntarget = [0, 0, 0]\nfov_deg = 40\naperture = 1e30\n");
+    assert_at(&e, 5, "camera: aperture 1e30 is beyond ±1e9, the range strahl traces");
+    let e = error("[camera]\neye = [0, 1, 5]\ntarget = [0, 0, 0]\nfov_deg = 40\nfocus_distance = 2e9\n");
+    assert_at(&e, 5, "camera: focus_distance 2e9 is beyond ±1e9, the range strahl traces");
     let e = error("[camera]\neye = [0, 1, 5]\ntarget = [0, 0, 0]\nfov_deg = 180\n");
     assert_at(&e, 4, "fov_deg 180 must lie between 0 and 180");
 }

@@ -17,7 +17,6 @@
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Duration;
 
 use anyhow::{Context, bail};
 use clap::parser::ValueSource;
@@ -159,7 +158,11 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     let camera = m.get_one::<String>("camera").map(String::as_str);
     let mut loaded = super::load_scene_with_camera(scene, camera)?;
     let get = |id: &str| m.get_one::<u32>(id).copied();
-    strahl::job::override_image(scene, &mut loaded.scene.image, [get("width"), get("height"), get("spp"), get("depth")])?;
+    strahl::job::override_image(
+        scene,
+        &mut loaded.scene.image,
+        [get("width"), get("height"), get("spp"), get("depth")],
+    )?;
     let scene_data = &mut loaded.scene;
     if let Some(passes) = m.get_many::<String>("passes") {
         scene_data.output.passes = strahl::job::parse_passes(&passes.cloned().collect::<Vec<_>>())?;
@@ -174,9 +177,7 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
         }
     }
     if let Some(&every) = m.get_one::<f64>("checkpoint_every") {
-        if Duration::try_from_secs_f64(every).is_err() {
-            bail!("-- --checkpoint-every {every} is not a number of seconds (0 or more)");
-        }
+        strahl::job::checkpoint_interval(every).map_err(|e| anyhow::anyhow!("-- {e}"))?;
     }
     let (width, height) = (scene_data.image.width, scene_data.image.height);
     if a.tiles > height {

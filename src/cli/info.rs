@@ -3,7 +3,8 @@
 //! materials), then the totals (with instances: unique triangles, stored once, and instanced
 //! triangles, as rays see them), the bounding box, the degenerate triangles dropped from mesh
 //! files, the memory a render would need (at the scene's size and passes, or those of
-//! `--width`, `--height`, `--passes`, as `strahl render` takes them) and the time loading took.
+//! `--width`, `--height`, `--passes`, as `strahl render` takes them), the default
+//! `--max-memory` and which limit set it, and the time loading took.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -85,6 +86,10 @@ fn describe(name: &str, loaded: &Loaded, load_seconds: f64) -> String {
             scene.image.width,
             scene.image.height
         ),
+        match strahl::job::memory::default_limit() {
+            Some(limit) => format!("default --max-memory: {limit}"),
+            None => "default --max-memory: none (no memory limit could be read)".into(),
+        },
         format!("load time: {:.1} ms", load_seconds * 1e3),
     ]);
     lines.iter().map(|l| format!("{l}\n")).collect()

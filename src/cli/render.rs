@@ -33,7 +33,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
     /// Refuse, before building anything, a render whose estimated memory (as `strahl info`
-    /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: 3/4 of physical memory].
+    /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: the smallest of 3/4 of
+    /// physical memory, the cgroup's memory limit and RLIMIT_AS less a reserve; `strahl info`
+    /// prints it].
     #[arg(long, value_name = "SIZE", value_parser = strahl::job::memory::parse_size)]
     max_memory: Option<u64>,
     #[command(flatten)]

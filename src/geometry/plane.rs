@@ -1,9 +1,17 @@
 //! Ray–plane intersection in the lecture's Hesse normal form `n·p = d`.
 //!
 //! Planes are unbounded, so they sit outside both BVHs: each backend tests the scene's (few)
-//! planes itself, with the same function.
+//! planes itself, with the same function. They end at
+//! [`PLANE_EXTENT`] from the origin along each axis:
+//! a grazing ray would otherwise meet one arbitrarily far away, and a ray leaving such a hit
+//! would start outside the range Embree traces ([`crate::scene::magnitude`]).
 
 use crate::math::Vec3;
+
+/// Planes end this far from the origin along each axis: a plane hit beyond it is a miss
+/// ([`intersect`]); four times the largest coordinate a scene may hold
+/// ([`crate::scene::magnitude::MAX_COORDINATE`]).
+pub const PLANE_EXTENT: f32 = 4e9;
 
 /// The plane of points `p` with `normal·p = dist`, `normal` of unit length; the normal is
 /// the side the plane faces (its geometric normal).
@@ -33,8 +41,9 @@ impl Plane {
     }
 }
 
-/// `t = (d − e·n) / (d⃗·n)` for the ray `e + t·d⃗` inside `(tnear, tfar)`; a ray parallel to the
-/// plane (`d⃗·n = 0`) never hits it.
+/// `t = (d − e·n) / (d⃗·n)` for the ray `e + t·d⃗` inside `(tnear, tfar)`, if the hit lies within
+/// [`PLANE_EXTENT`] of the origin along each axis; a ray
+/// parallel to the plane (`d⃗·n = 0`) never hits it.
 #[inline]
 pub fn intersect(org: Vec3, dir: Vec3, plane: &Plane, tnear: f32, tfar: f32) -> Option<f32> {
     let denom = dir.dot(plane.normal);
@@ -42,7 +51,8 @@ pub fn intersect(org: Vec3, dir: Vec3, plane: &Plane, tnear: f32, tfar: f32) -> 
         return None;
     }
     let t = (plane.dist - org.dot(plane.normal)) / denom;
-    (t > tnear && t < tfar).then_some(t)
+    let inside = |t: f32| (org + t * dir).abs().max_element() <= PLANE_EXTENT;
+    (t > tnear && t < tfar && inside(t)).then_some(t)
 }
 
 /// The closest of `planes` along the ray inside `(tnear, tfar)`: `(t, plane index)`.
@@ -85,6 +95,18 @@ mod tests {
         assert!((t as f64 - 1.0 / s).abs() <= 1e-6 / s, "{t}");
         // From below, facing away from the normal, still hits (planes are two-sided).
         assert_eq!(intersect(Vec3::new(0.0, -3.0, 0.0), Vec3::Y, &FLOOR, 0.0, f32::INFINITY), Some(2.0));
+    }
+
+    #[test]
+    fn planes_end_at_the_extent() {
+        // Direction y = −10⁻²⁰: y = −1 lies 10²⁰ away, beyond what a ray may start from.
+        let grazing = Vec3::new(1.0, -1e-20, 0.0);
+        assert_eq!(intersect(Vec3::ZERO, grazing, &FLOOR, 0.0, f32::INFINITY), None);
+        let extent = PLANE_EXTENT;
+        // Just inside: 0.9 of the extent along x.
+        let d = Vec3::new(0.9 * extent, -1.0, 0.0).normalize();
+        let t = intersect(Vec3::ZERO, d, &FLOOR, 0.0, f32::INFINITY).unwrap();
+        assert!(((t * d).x / extent - 0.9).abs() < 1e-3, "{t}");
     }
 
     #[test]

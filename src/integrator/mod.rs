@@ -361,5 +361,8 @@ pub fn check_scene(scene: &Scene) -> Result<(), RenderError> {
             return bad(format!("plane {i}"), problem);
         }
     }
+    if let Some((object, problem)) = crate::scene::magnitude::problem(scene) {
+        return bad(object, problem);
+    }
     Ok(())
 }

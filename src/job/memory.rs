@@ -1,6 +1,8 @@
 //! The memory budget: what a render will need, estimated from the loaded scene and the image
 //! before anything large is allocated (the BVHs, the film, the output), so that a render that
-//! cannot fit is refused up front instead of taking a farm node down.
+//! cannot fit is refused up front instead of taking a farm node down; and the budget itself,
+//! `--max-memory`, by default the smallest limit the process runs under
+//! ([`crate::sys::memory::default_limit`]).
 //!
 //! ```text
 //! total = base + geometry + textures + BVH + film + output
@@ -8,11 +10,21 @@
 //!
 //! - **base**: [`BASE_BYTES`], the process, Embree's device and the thread pool.
 //! - **geometry**: the scene's arrays as they are (positions, indices, normals, colours, texture
-//!   coordinates, per-triangle materials; spheres, planes, instances), counted exactly.
+//!   coordinates, per-triangle materials; spheres, planes, instances), counted exactly, and
+//!   every name the scene holds (one per sphere of a `random_spheres` object) at
+//!   [`STRING_BYTES`] plus its length.
 //! - **textures**: the decoded texels, 12 bytes each, every image once.
-//! - **BVH**: [`BVH_BYTES_PER_PRIMITIVE`] per triangle (meshes and prototypes, each once) and per
-//!   sphere, [`BVH_BYTES_PER_INSTANCE`] per instance: measured on the Stanford dragon (871,306
-//!   triangles): Embree's BVH 48 MB, the native one 43 MB, i.e. 55 and 49 bytes per triangle.
+//! - **BVH**: the peak of either backend's build, which holds its temporaries and the finished
+//!   tree at once: [`TRIANGLE_BUILD_BYTES`] per triangle (meshes and prototypes, each once),
+//!   [`SPHERE_BUILD_BYTES`] per sphere, [`MESH_BUILD_BYTES`] per mesh and
+//!   [`BVH_BYTES_PER_INSTANCE`] per instance, plus Embree's own copy of every vertex and index
+//!   buffer (12 bytes per vertex and per triangle). Measured (peak RSS, `/usr/bin/time`, 2
+//!   threads) with 1 to 6 Stanford dragons (871,306 triangles each) as separate meshes: every
+//!   dragon adds 124.8 MB to Embree's peak and 108.7 MB to the native one's, of which 19.6 MB
+//!   are its arrays once loaded: 121 and 102 bytes per triangle beyond the geometry (Embree's
+//!   includes its 18-byte copy). 2,000,000 random spheres: 218 and 175 bytes per sphere in
+//!   all, 68 of them the sphere and its name. 50,000 one-triangle meshes: about 600 bytes per
+//!   Embree geometry. (The finished trees alone are smaller: 55 and 49 bytes per triangle.)
 //! - **film**: 4 bytes per float per pixel of the region, over every pass (RGBA, Z, N, albedo,
 //!   and the AOVs with their floats per pixel, Cryptomatte included).
 //! - **output**: a quarter of the film (the compressed EXR blocks kept while rendering, at most
@@ -22,27 +34,39 @@
 //!   441 MB peak against 136 MB at 1920 × 1080, 53 bytes per pixel in all; 16384 × 16384,
 //!   12.0 GB, 44.6 bytes per pixel.
 //!
+//! The parts are added although the BVH's temporaries are freed before the film is made: the
+//! sum errs high. Six dragons at 320 × 240: estimated 850 MB, peak 760 MB (Embree) and 677 MB
+//! (native); `tests/memory.rs` checks the estimate against the peak of real renders.
+//!
 //! Nothing here grows with the sample count: samples are accumulated into the film's pixel as
 //! they are drawn, and Cryptomatte's per-pixel id counts live on the rendering thread for one
 //! pixel at a time (at most `spp` entries, bounded by the `spp` cap). So `spp × pixels` costs
 //! time, not memory; the time is shown by the progress bar, and a long render can be stopped
 //! and resumed (`--checkpoint-every`, `--resume`).
 //!
-//! The estimate errs high; it does not count the load's transient buffers (bounded by the
-//! file limits of [`crate::sys::read`]).
+//! Not counted: the load's transient buffers (a mesh file's bytes while it is parsed, an image
+//! file's while it is decoded; bounded by the file limits of [`crate::sys::read`]), freed
+//! before the budget is checked, and whatever grows with the thread count beyond the base.
 
 use std::collections::HashSet;
 
 use crate::material::Texture;
 use crate::output::passes::Pass;
 use crate::scene::Scene;
+pub use crate::sys::memory::{BASE_BYTES, BVH_BYTES_PER_INSTANCE, Limit, default_limit, megabytes, parse_size};
 
-/// The process, Embree's device and the thread pool (measured: 30–37 MB for the smallest scene).
-pub const BASE_BYTES: u64 = 40 << 20;
-/// BVH memory per triangle or sphere (measured 49–55 on the dragon, rounded up).
-pub const BVH_BYTES_PER_PRIMITIVE: u64 = 64;
-/// BVH memory per instance (the top level's node and the instance record).
-pub const BVH_BYTES_PER_INSTANCE: u64 = 256;
+/// The peak of a BVH build per triangle, beyond the scene's arrays and Embree's copy of them
+/// (measured 103 for Embree, 102 for the native BVH, on the dragon; rounded up).
+pub const TRIANGLE_BUILD_BYTES: u64 = 112;
+/// The peak of a BVH build per sphere, beyond the sphere and its name (measured 150 for
+/// Embree's user geometry, 107 for the native BVH; rounded up).
+pub const SPHERE_BUILD_BYTES: u64 = 160;
+/// Per mesh (and prototype): Embree's geometry object and buffers' headers, the native BVH's
+/// records (measured about 600 bytes per mesh with Embree).
+pub const MESH_BUILD_BYTES: u64 = 1 << 10;
+/// A string's own bytes besides its text: the `String` (24) and the allocator's header and
+/// rounding (up to 24).
+pub const STRING_BYTES: u64 = 48;
 /// The output's fixed part (encoder state, compression buffers per thread).
 pub const OUTPUT_BASE_BYTES: u64 = 16 << 20;
 
@@ -81,15 +105,12 @@ impl std::fmt::Display for Estimate {
     }
 }
 
-/// `n` bytes as whole megabytes (10⁶ bytes), e.g. `42 MB`.
-pub fn megabytes(n: u64) -> String {
-    format!("{} MB", n.div_ceil(1_000_000))
-}
-
 /// The estimate for rendering `pixels` pixels (the region) of `scene`.
 pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
     let size = |n: usize, each: usize| (n * each) as u64;
+    let text = |s: &String| STRING_BYTES + s.len() as u64;
     let meshes = scene.meshes.iter().chain(&scene.prototypes);
+    let names = &scene.names;
     let geometry = meshes
         .clone()
         .map(|m| {
@@ -99,11 +120,15 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
                 + m.colors.as_ref().map_or(0, |v| size(v.len(), 12))
                 + m.uvs.as_ref().map_or(0, |v| size(v.len(), 8))
                 + m.triangle_materials.as_ref().map_or(0, |v| size(v.len(), 4))
+                + text(&m.name)
         })
         .sum::<u64>()
         + size(scene.spheres.len(), std::mem::size_of::<crate::geometry::Sphere>())
         + size(scene.planes.len(), std::mem::size_of::<crate::geometry::Plane>())
-        + size(scene.instances.len(), std::mem::size_of::<crate::scene::Instance>());
+        + size(scene.instances.len(), std::mem::size_of::<crate::scene::Instance>())
+        + scene.instances.iter().map(|i| text(&i.name)).sum::<u64>()
+        + scene.materials.iter().map(|m| text(&m.name)).sum::<u64>()
+        + names.meshes.iter().chain(&names.spheres).chain(&names.planes).map(text).sum::<u64>();
     let mut seen = HashSet::new();
     let textures = scene
         .materials
@@ -113,8 +138,14 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
             _ => None,
         })
         .sum();
-    let primitives = meshes.map(|m| m.indices.len() as u64).sum::<u64>() + scene.spheres.len() as u64;
-    let bvh = primitives * BVH_BYTES_PER_PRIMITIVE + scene.instances.len() as u64 * BVH_BYTES_PER_INSTANCE;
+    let triangles = meshes.clone().map(|m| m.indices.len() as u64).sum::<u64>();
+    let vertices = meshes.clone().map(|m| m.positions.len() as u64).sum::<u64>();
+    let embree_copy = 12 * (vertices + triangles);
+    let bvh = triangles * TRIANGLE_BUILD_BYTES
+        + scene.spheres.len() as u64 * SPHERE_BUILD_BYTES
+        + meshes.count() as u64 * MESH_BUILD_BYTES
+        + scene.instances.len() as u64 * BVH_BYTES_PER_INSTANCE
+        + embree_copy;
     let floats: u64 = scene
         .output
         .passes
@@ -131,59 +162,11 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
     Estimate { base: BASE_BYTES, geometry, textures, bvh, film, output: film / 4 + OUTPUT_BASE_BYTES }
 }
 
-/// The machine's physical memory (`MemTotal` of `/proc/meminfo`), if it can be read.
-pub fn physical_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
-/// The default `--max-memory`: three quarters of the physical memory (the rest for the system
-/// and the render's own transient buffers), or no limit when it cannot be read.
-pub fn default_limit() -> Option<u64> {
-    physical_memory().map(|m| m / 4 * 3)
-}
-
-/// Parses a size: a number of bytes with an optional suffix `K`, `M`, `G`, `T` (powers of
-/// 1024; `KiB`, `MB`, … read the same way, case-insensitive): `512M`, `24G`, `1.5G`.
-pub fn parse_size(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
-    let (number, unit) = t.split_at(split);
-    let value: f64 = number.parse().map_err(|_| format!("'{text}' is not a size (e.g. 512M, 24G)"))?;
-    let shift = match unit.trim().to_ascii_lowercase().trim_end_matches("ib").trim_end_matches('b') {
-        "" => 0,
-        "k" => 10,
-        "m" => 20,
-        "g" => 30,
-        "t" => 40,
-        _ => return Err(format!("'{text}': unknown unit '{unit}' (use K, M, G or T)")),
-    };
-    let bytes = value * (1u64 << shift) as f64;
-    if !(bytes.is_finite() && bytes >= 1.0 && bytes < u64::MAX as f64) {
-        return Err(format!("'{text}' is not a size of at least one byte"));
-    }
-    Ok(bytes as u64)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::math::Vec3;
     use crate::scene::Mesh;
-
-    #[test]
-    fn sizes_parse_with_binary_units() {
-        assert_eq!(parse_size("512M"), Ok(512 << 20));
-        assert_eq!(parse_size("24G"), Ok(24 << 30));
-        assert_eq!(parse_size("1.5g"), Ok(3 << 29));
-        assert_eq!(parse_size("100"), Ok(100));
-        assert_eq!(parse_size("2GiB"), Ok(2 << 30));
-        for bad in ["", "G", "-1G", "3X", "0"] {
-            assert!(parse_size(bad).is_err(), "{bad}");
-        }
-    }
 
     #[test]
     fn the_estimate_counts_what_the_scene_holds() {
@@ -195,8 +178,8 @@ mod tests {
             ..Mesh::default()
         });
         let e = estimate(&scene, 1920 * 1080);
-        assert_eq!(e.geometry, 3 * 12 + 1000 * 12 + 3 * 12);
-        assert_eq!(e.bvh, 1000 * BVH_BYTES_PER_PRIMITIVE);
+        assert_eq!(e.geometry, 3 * 12 + 1000 * 12 + 3 * 12 + STRING_BYTES);
+        assert_eq!(e.bvh, 1000 * TRIANGLE_BUILD_BYTES + MESH_BUILD_BYTES + 12 * (3 + 1000));
         // Default passes: RGBA, Z, N, albedo: 11 floats per pixel.
         assert_eq!(e.film, 1920 * 1080 * 44);
         assert_eq!(e.output, e.film / 4 + OUTPUT_BASE_BYTES);

@@ -190,9 +190,7 @@ impl RenderJob {
         scene.output.crypto_levels = settings.crypto_levels.unwrap_or(scene.output.crypto_levels);
         refuse_over_budget(path, settings.max_memory, &scene, region)?;
         if let Some(every) = settings.output.as_ref().map(|o| o.checkpoint_every) {
-            if !(every.is_finite() && every >= 0.0) {
-                bail!("--checkpoint-every {every} is not a number of seconds (0 or more)");
-            }
+            checkpoint_interval(every)?;
         }
         let threads = thread_count(settings.threads);
         let (backend, output) = (settings.backend, settings.output);
@@ -298,7 +296,7 @@ impl RenderJob {
         };
         let checkpointing = Checkpointing {
             path: output.checkpoint(),
-            every: Duration::from_secs_f64(output.checkpoint_every),
+            every: checkpoint_interval(output.checkpoint_every)?,
             resume: output.resume,
             key: checkpoint::key(scene, self.region, self.backend.name()),
         };
@@ -481,8 +479,31 @@ pub fn parse_compression(name: &str) -> Result<Compression, String> {
 }
 
 /// The number of threads to use: `requested`, or one per core.
+///
+/// At most one per core this process may run on (its affinity and cgroup quota, as
+/// [`std::thread::available_parallelism`] reads them): more would only wait for each other (an
+/// idle rayon worker tries to steal from every other one, so the waiting grows with the square
+/// of the count: `--threads 4096` took 112 s on 2 cores for an 8 × 8 image, 0.04 s capped);
+/// a note on stderr says so.
 pub fn thread_count(requested: Option<usize>) -> usize {
-    requested.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match requested {
+        Some(t) if t > cores => {
+            eprintln!("note: --threads {t} is more than the {cores} cores this process may use: using {cores}");
+            cores
+        }
+        Some(t) => t,
+        None => cores,
+    }
+}
+
+/// The time between two checkpoints, `--checkpoint-every SECONDS`: 0 to 1e9 s (about 32
+/// years; a larger float has no `Duration`, and `from_secs_f64` panics on it).
+pub fn checkpoint_interval(seconds: f64) -> anyhow::Result<Duration> {
+    Duration::try_from_secs_f64(seconds).ok().filter(|d| d.as_secs_f64() <= 1e9).with_context(|| {
+        let shown = if seconds.abs() < 1e9 { seconds.to_string() } else { format!("{seconds:e}") };
+        format!("--checkpoint-every {shown} is not a number of seconds from 0 to 1e9")
+    })
 }
 
 /// A rayon pool of `threads` workers, each with flush-to-zero on as Embree asks.
@@ -552,13 +573,15 @@ fn refuse_inputs_as_outputs(path: &Path, output: &Output) -> anyhow::Result<()> 
 }
 
 /// Refuses a render whose estimated memory ([`memory::estimate`]) is over `max_memory`
-/// (default 3/4 of the machine's memory), saying what it needs and what to do.
+/// (default: the smallest limit this process runs under, [`memory::default_limit`]), saying
+/// what it needs, which limit refused it and what to do.
 fn refuse_over_budget(path: &Path, max_memory: Option<u64>, scene: &Scene, region: Region) -> anyhow::Result<()> {
     use memory::{default_limit, estimate, megabytes};
-    let Some(limit) = max_memory.or_else(default_limit) else { return Ok(()) };
+    let default = if max_memory.is_some() { None } else { default_limit() };
+    let Some(limit) = max_memory.or(default.as_ref().map(|d| d.bytes)) else { return Ok(()) };
     let needs = estimate(scene, region.pixel_count());
     if needs.total() > limit {
-        let whose = if max_memory.is_some() { "" } else { " (3/4 of this machine's memory)" };
+        let whose = default.map_or(String::new(), |d| format!(" (the default: {})", d.source));
         bail!(
             "{}: this render needs about {needs}, more than --max-memory {}{whose}: render a smaller image \
              (--width/--height), fewer passes (--passes), parts of it (--region or --tile, then strahl merge), \

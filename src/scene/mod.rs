@@ -10,6 +10,7 @@ pub mod emitters;
 pub mod hash;
 pub mod instance;
 pub mod load;
+pub mod magnitude;
 pub mod mesh;
 pub mod procedural;
 pub mod subdivide;

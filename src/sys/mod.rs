@@ -3,6 +3,7 @@
 //! paths are one file ([`same_file`]), and SIGINT/SIGTERM ([`signals`]).
 
 pub mod atomic;
+pub mod memory;
 pub mod read;
 pub mod same_file;
 pub mod signals;

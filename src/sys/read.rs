@@ -22,10 +22,10 @@
 //!   memory. The `16 ×` allowance covers the multi-member files (`bgzip`) whose last member's
 //!   ISIZE does not describe the whole.
 //! - **The memory budget** ([`LoadOptions::max_memory`], `strahl render --max-memory`, else
-//!   [`crate::job::memory::default_limit`]) bounds every large allocation a load makes from what a
+//!   [`crate::sys::memory::default_limit`]) bounds every large allocation a load makes from what a
 //!   file declares: a file read whole, gzip's inflated bytes, a texture's decoded texels
 //!   ([`Held`]: counted while they live), a glTF file's meshes and instances. Each is checked
-//!   against [`remaining_memory`] = budget − [`crate::job::memory::BASE_BYTES`] − texels held,
+//!   against [`remaining_memory`] = budget − [`crate::sys::memory::BASE_BYTES`] − texels held,
 //!   before it is allocated. The render's own estimate ([`crate::memory`]) checks the whole
 //!   scene afterwards.
 //! - **Confinement** ([`LoadOptions::confine`], `--confine DIR`): every input must resolve,
@@ -56,7 +56,7 @@ static INPUTS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// What a scene load may read and allocate (see the module header).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
-    /// The memory budget, bytes (`--max-memory`); `None`: [`crate::job::memory::default_limit`].
+    /// The memory budget, bytes (`--max-memory`); `None`: [`crate::sys::memory::default_limit`].
     pub max_memory: Option<u64>,
     /// Every input must resolve inside this folder (`--confine`); canonical once set.
     pub confine: Option<PathBuf>,
@@ -88,17 +88,17 @@ pub fn load_options() -> LoadOptions {
 static HELD_BYTES: AtomicU64 = AtomicU64::new(0);
 
 /// The memory budget of a load: [`LoadOptions::max_memory`], else
-/// [`crate::job::memory::default_limit`]; `None` when neither is known.
+/// [`crate::sys::memory::default_limit`]; `None` when neither is known.
 pub fn memory_limit() -> Option<u64> {
-    load_options().max_memory.or_else(crate::job::memory::default_limit)
+    load_options().max_memory.or_else(|| crate::sys::memory::default_limit().map(|l| l.bytes))
 }
 
-/// Bytes a load may still allocate: the budget less [`crate::job::memory::BASE_BYTES`] and the
+/// Bytes a load may still allocate: the budget less [`crate::sys::memory::BASE_BYTES`] and the
 /// decoded inputs alive ([`Held`]); `u64::MAX` without a budget.
 pub fn remaining_memory() -> u64 {
     match memory_limit() {
         Some(limit) => {
-            limit.saturating_sub(crate::job::memory::BASE_BYTES).saturating_sub(HELD_BYTES.load(Ordering::Relaxed))
+            limit.saturating_sub(crate::sys::memory::BASE_BYTES).saturating_sub(HELD_BYTES.load(Ordering::Relaxed))
         }
         None => u64::MAX,
     }
@@ -125,7 +125,7 @@ impl Held {
     /// Counts `bytes` as held, if they fit in [`remaining_memory`] (checked and counted at
     /// once, so that loads on several threads cannot both take the last of the budget).
     pub fn take(bytes: u64, what: impl Into<String>) -> Result<Held, ReadError> {
-        let budget = memory_limit().map(|l| l.saturating_sub(crate::job::memory::BASE_BYTES));
+        let budget = memory_limit().map(|l| l.saturating_sub(crate::sys::memory::BASE_BYTES));
         let taken = HELD_BYTES.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |held| match budget {
             Some(b) if held.saturating_add(bytes) > b => None,
             _ => Some(held.saturating_add(bytes)),
@@ -138,6 +138,11 @@ impl Held {
                 remaining_bytes: budget.unwrap_or(u64::MAX).saturating_sub(held),
             }),
         }
+    }
+
+    /// Holds nothing (a value that describes an input without its data).
+    pub fn nothing() -> Held {
+        Held { bytes: 0 }
     }
 
     /// The bytes held.

@@ -264,6 +264,11 @@ pub fn run<A: Accel, B: Accel>(
     n: usize,
     seed: u64,
 ) -> Result<Report, RenderError> {
+    // The rays are made from the scene's bounds and camera: they must be inside the range
+    // both backends trace (a sphere of radius 3e38 has no finite bounds to draw rays in).
+    if let Some((object, problem)) = crate::scene::magnitude::problem(scene) {
+        return Err(RenderError::InvalidScene(format!("{object}: {problem}")));
+    }
     let rays = workload::rays(scene, kind, n, seed, a)?;
     Ok(compare(scene, a, b, &rays)?)
 }

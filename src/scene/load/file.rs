@@ -101,6 +101,7 @@ pub fn from_mesh_file(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let (mut scene, report, summary) = objects::mesh_file_scene(path)?;
     scene.camera = CameraSpec::framing(scene.bounds(), CameraSpec::default().fov_deg);
+    crate::scene::magnitude::check(path, &scene)?;
     Ok(Loaded { scene, warnings: report.warnings, objects: vec![summary] })
 }
 
@@ -118,6 +119,7 @@ pub fn from_toml_str(text: &str, path: &Path) -> Result<Loaded, SceneError> {
         .map_err(|e| locate(Problem { span: e.span(), message: e.message().trim().replace('\n', "; ") }))?;
     let base = path.parent().unwrap_or(Path::new(""));
     let (scene, warnings, objects) = file.into_scene(base).map_err(locate)?;
+    crate::scene::magnitude::check(path, &scene)?;
     let warnings = warnings.into_iter().map(|w| locate(w).to_string()).collect();
     Ok(Loaded { scene, warnings, objects })
 }
@@ -167,20 +169,16 @@ pub fn image_problem(image: &ImageSpec) -> Option<(&'static str, String)> {
 }
 
 /// What the camera must satisfy for the lecture's basis `w = (e−z)/|e−z|`, `u = up×w`,
-/// `v = w×u` to exist, as `(field, problem)`.
+/// `v = w×u` to exist, and for its rays to stay inside the range strahl traces
+/// ([`super::magnitude`]), as `(field, problem)`.
 pub fn camera_problem(camera: &CameraSpec) -> Option<(&'static str, String)> {
-    let view = camera.eye - camera.target;
-    let w = view.normalize_or_zero();
-    if !view.length().is_finite() {
-        // Finite coordinates whose difference (or its length) overflows f32, e.g. eye = [3e38, 0, 0].
-        Some((
-            "eye",
-            format!(
-                "eye {} and target {} are too far apart: their distance overflows f32 (about 1.8e19 at most)",
-                camera.eye, camera.target
-            ),
-        ))
-    } else if w == Vec3::ZERO || !w.is_finite() {
+    // First: inside the range, the eye and target are at most 3.5e9 apart, so every length
+    // below is finite.
+    if let Some(problem) = crate::scene::magnitude::camera_problem(camera) {
+        return Some(problem);
+    }
+    let w = (camera.eye - camera.target).normalize_or_zero();
+    if w == Vec3::ZERO || !w.is_finite() {
         Some(("target", format!("eye and target are both {}: the camera has no view direction", camera.eye)))
     } else if camera.up.cross(w).length() <= 1e-6 * camera.up.length() {
         Some((
@@ -554,6 +552,8 @@ impl CameraFile {
                 "target" => Some(self.target.span()),
                 "up" => self.up.as_ref().map(|u| u.span()),
                 "fov_deg" => Some(self.fov_deg.span()),
+                "aperture" => self.aperture.as_ref().map(|a| a.span()),
+                "focus_distance" => self.focus_distance.as_ref().map(|f| f.span()),
                 _ => None,
             };
             return Err(at(field_span.unwrap_or_else(|| span.clone()), format!("camera: {message}")));

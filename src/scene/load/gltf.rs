@@ -244,10 +244,10 @@ const VERTEX_BYTES: u64 = 44;
 /// Bytes of a triangle: three indices and its material.
 const TRIANGLE_BYTES: u64 = 16;
 /// Bytes of a placement: the node's record, the scene's instance (with its name) and its part
-/// of the BVH ([`crate::job::memory::BVH_BYTES_PER_INSTANCE`]).
+/// of the BVH ([`crate::sys::memory::BVH_BYTES_PER_INSTANCE`]).
 const PLACEMENT_BYTES: u64 = (std::mem::size_of::<MeshNode>() + std::mem::size_of::<crate::scene::Instance>() + 64)
     as u64
-    + crate::job::memory::BVH_BYTES_PER_INSTANCE;
+    + crate::sys::memory::BVH_BYTES_PER_INSTANCE;
 
 /// Refuses a file whose placed meshes (sized from their accessors' counts, twice: the file's
 /// copy and the scene's) and placements do not fit in what is left of the memory budget.

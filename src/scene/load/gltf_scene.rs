@@ -169,5 +169,6 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
             path.display()
         ));
     }
+    crate::scene::magnitude::check(path, &scene)?;
     Ok(Loaded { scene, warnings, objects: vec![summary] })
 }
