@@ -283,7 +283,8 @@ impl Plan {
     /// renamed with [`crate::io::atomic::commit_all`].
     pub fn stage(&self, out: &Path, threads: usize) -> Result<Staged, MergeError> {
         let problem = Mutex::new(None);
-        let staged = crate::io::exr::stage_blocks(self.header.clone(), threads, |index| self.block(index, &problem), out);
+        let staged =
+            crate::io::exr::stage_blocks(self.header.clone(), threads, |index| self.block(index, &problem), out);
         staged.map_err(|e| problem.into_inner().unwrap_or_else(|p| p.into_inner()).unwrap_or(MergeError(e.to_string())))
     }
 
@@ -574,7 +575,9 @@ fn comparable(header: &Header) -> Header {
     h.chunk_count = 0;
     h.own_attributes.layer_position = Vec2(0, 0);
     h.own_attributes.capture_date = None;
-    h.own_attributes.other.retain(|name, _| !PER_RUN.iter().any(|p| p.as_bytes() == name.as_slice()) && !is_manifest(name));
+    h.own_attributes
+        .other
+        .retain(|name, _| !PER_RUN.iter().any(|p| p.as_bytes() == name.as_slice()) && !is_manifest(name));
     h
 }
 
@@ -602,7 +605,12 @@ fn compare(first: &Part, part: &Part) -> Result<(), MergeError> {
         )
     } else if x.channels != y.channels {
         let names = |h: &Header| {
-            h.channels.list.iter().map(|c| format!("{}:{:?}", lossy(&c.name), c.sample_type)).collect::<Vec<_>>().join(" ")
+            h.channels
+                .list
+                .iter()
+                .map(|c| format!("{}:{:?}", lossy(&c.name), c.sample_type))
+                .collect::<Vec<_>>()
+                .join(" ")
         };
         format!("channels [{}] differ from {a}'s [{}]", names(&y), names(&x))
     } else if x.compression != y.compression {
@@ -760,8 +768,11 @@ impl<'de> serde::Deserialize<'de> for OrderedObject {
 /// Merges the parts given as bytes in memory on one thread within `budget` bytes (see
 /// [`Plan::memory`]): what `strahl merge` does, without files. The fuzz target's entry.
 pub fn merge_bytes(parts: Vec<Vec<u8>>, budget: u64) -> Result<Vec<u8>, MergeError> {
-    let sources =
-        parts.into_iter().enumerate().map(|(k, bytes)| Source::Bytes { name: format!("part{k}").into(), bytes }).collect();
+    let sources = parts
+        .into_iter()
+        .enumerate()
+        .map(|(k, bytes)| Source::Bytes { name: format!("part{k}").into(), bytes })
+        .collect();
     let plan = plan(sources)?;
     let threads = plan.threads_within(1, budget)?;
     plan.encode(threads)

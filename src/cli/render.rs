@@ -260,6 +260,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         object_names: ids.object_names.clone(),
         material_names: scene.materials.iter().map(|m| m.name.clone()).collect(),
     };
+    // Every string the EXR carries, checked before rendering (strahl::io::exr::check_encodable).
+    let info = RenderInfo {
+        scene_file: args.scene.display().to_string(),
+        backend: args.backend.name().to_string(),
+        render_seconds: 0.0,
+    };
+    options.attributes = strahl::io::metadata::attributes(&scene, &info);
+    strahl::io::exr::check_encodable(&scene.output, &options)
+        .with_context(|| format!("{}: cannot be written", args.output.display()))?;
     let output = Output { path: &args.output, options: &options };
     let threads = super::thread_count(args.threads.map(|t| t as usize));
     let pool = super::thread_pool(threads)?;
@@ -282,14 +291,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     };
 
-    options.attributes = strahl::io::metadata::attributes(
-        &scene,
-        &RenderInfo {
-            scene_file: args.scene.display().to_string(),
-            backend: args.backend.name().to_string(),
-            render_seconds,
-        },
-    );
+    strahl::io::metadata::finish(&mut options.attributes, render_seconds);
     let write_start = Instant::now();
     // Both files whole in their temporaries first, then renamed together: a failure writing
     // either leaves neither (strahl::io::atomic).

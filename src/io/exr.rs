@@ -372,11 +372,9 @@ fn write_blocks<W: Write + Seek>(
                     use rayon::prelude::*;
                     batch
                         .par_iter()
-                        .map(|(i, index)| {
-                            match compressed(*i)? {
-                                Some(bytes) => Ok(bytes),
-                                None => Ok(super::exr_zip::compress_block(&block(*index)?)),
-                            }
+                        .map(|(i, index)| match compressed(*i)? {
+                            Some(bytes) => Ok(bytes),
+                            None => Ok(super::exr_zip::compress_block(&block(*index)?)),
                         })
                         .collect()
                 });
@@ -511,7 +509,8 @@ pub(crate) fn stage_compressed(
     compressed: &Compressed,
 ) -> std::result::Result<Staged, WriteError> {
     let channels = file_channels(film, options);
-    let header = header(film, &channels, options).map_err(|e| WriteError::new(path, format!("cannot encode OpenEXR: {e}")))?;
+    let header =
+        header(film, &channels, options).map_err(|e| WriteError::new(path, format!("cannot encode OpenEXR: {e}")))?;
     stage_header_blocks(header, threads, |index| Ok(block_bytes(film, &channels, index)), compressed, path)
 }
 
@@ -677,6 +676,50 @@ mod tests {
         let _ = std::fs::remove_file(&path);
         assert_eq!(bytes, encode(&f, &options, 1).unwrap());
         let spans = header_attribute_spans(&bytes).unwrap();
+        let names: Vec<&[u8]> = spans.iter().map(|r| bytes[r.clone()].split(|&c| c == 0).next().unwrap()).collect();
+        assert!(names.is_sorted(), "attributes in name order");
+    }
+
+    #[test]
+    fn text_is_utf8_and_bad_names_are_refused_before_writing() {
+        let output = OutputSpec { passes: PassSet::all(), ..Default::default() };
+        let mut options = ExrOptions {
+            attributes: vec![("strahl/scene".into(), Attribute::Text("сцена ❤.toml".into()))],
+            object_names: vec!["шар".into(), "a\"b".into()],
+            material_names: vec!["сталь".into()],
+            ..Default::default()
+        };
+        check_encodable(&output, &options).unwrap();
+        let image = read(&encode(&Film::with_output(2, 2, &output), &options, 1).unwrap());
+        let attributes = &image.layer_data[0].attributes.other;
+        let value = |name: &str| match attributes.get(&Text::from(name)) {
+            Some(AttributeValue::Text(t)) => String::from_utf8(t.as_slice().to_vec()).unwrap(),
+            other => panic!("{name}: {other:?}"),
+        };
+        assert_eq!(value("strahl/scene"), "сцена ❤.toml");
+        let key = crate::cryptomatte::key(&crypto_name(Layout::Blender, Pass::CryptoObject));
+        assert_eq!(value(&format!("cryptomatte/{key}/manifest")), crate::cryptomatte::manifest(&options.object_names));
+        for bad in ["a\0b", &"x".repeat(256), ""] {
+            options.attributes = vec![(bad.to_string(), Attribute::Int(1))];
+            assert!(check_encodable(&output, &options).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_header_of_many_megabytes_is_sorted_too() {
+        // 800,000 object names: a 20 MB manifest, more than the first reads of the header.
+        let output = OutputSpec { passes: PassSet::of(&[Pass::Combined, Pass::CryptoObject]), ..Default::default() };
+        let options = ExrOptions {
+            object_names: (0..800_000).map(|i| format!("tree {i}")).collect(),
+            attributes: vec![("b".into(), Attribute::Int(1)), ("a".into(), Attribute::Int(2))],
+            ..Default::default()
+        };
+        let path = std::env::temp_dir().join(format!("strahl-exr-big-header-{}.exr", std::process::id()));
+        write(&Film::with_output(3, 2, &output), &options, &path, 1).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        let spans = header_attribute_spans(&bytes).unwrap();
+        assert!(spans.last().unwrap().end > 16 << 20);
         let names: Vec<&[u8]> = spans.iter().map(|r| bytes[r.clone()].split(|&c| c == 0).next().unwrap()).collect();
         assert!(names.is_sorted(), "attributes in name order");
     }
