@@ -242,7 +242,8 @@ impl Plan {
     /// memory = base + Σ parts (3 × header + 16 × blocks) + (4·T + 8·T + 4) × B
     /// ```
     ///
-    /// with `B` the raw bytes of a block of the result (`L` full lines) and `T` the threads:
+    /// with `B` the raw bytes of a block of the result (`L` full lines, or the image's height
+    /// if less) and `T` the threads:
     /// each thread holds a block of the result, a block of a part stored and decompressed
     /// (each at most `B`), then the result's block and its compressed form while compressing
     /// it (4 × B in all); the writer keeps up to 8 compressed blocks a thread (each at most
@@ -251,7 +252,8 @@ impl Plan {
     /// headers (Cryptomatte manifests, three copies at most) and the block tables stay in
     /// memory for the whole merge. `base` is [`MERGE_BASE_BYTES`].
     pub fn memory(&self, threads: usize) -> u64 {
-        let block = self.line_bytes().saturating_mul(self.lines as u64);
+        let lines = self.lines.min(self.header.layer_size.1) as u64;
+        let block = self.line_bytes().saturating_mul(lines);
         let parts: u64 = self.parts.iter().map(|p| 3 * p.header_bytes + 16 * p.blocks.len() as u64).sum();
         let t = threads.max(1) as u64;
         let blocks = (4 * t + BATCH_PER_THREAD * t + 4).saturating_mul(block);
