@@ -132,10 +132,12 @@ scale: build
 # Fuzz the readers with cargo-fuzz (nightly Rust; installs cargo-fuzz if missing): each target
 # of fuzz/ runs FUZZ_SECONDS (default 600) with a 10 s hang timeout and a 2 GB memory limit,
 # seeded with the shipped scenes, the test data's OBJ/MTL/PLY files (../shared/data/meshes, or
-# STRAHL_TEST_DATA), a pygltflib-written glTF and the PNGs of docs/. A crash, hang or OOM leaves its input in
-# fuzz/artifacts/TARGET/ and stops with a non-zero status; make it a regression test.
+# STRAHL_TEST_DATA), a pygltflib-written glTF, the PNGs of docs/ and, for exr_part (merge parts),
+# 8 × 6 tiles rendered by a built strahl in every compression, alone and in pairs. A crash, hang
+# or OOM leaves its input in fuzz/artifacts/TARGET/ and stops with a non-zero status; make it a
+# regression test.
 FUZZ_SECONDS ?= 600
-FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script texture
+FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script texture exr_part
 FUZZ_DATA := $(or $(STRAHL_TEST_DATA),../shared/data)/meshes
 fuzz:
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
@@ -147,6 +149,16 @@ fuzz:
 	  find "$(FUZZ_DATA)" -size -1000k -name '*.ply' | while read -r f; do cp "$$f" "fuzz/corpus/ply/$$(echo "$$f" | md5sum | cut -c1-16)"; done; \
 	else echo "fuzz: no test data at $(FUZZ_DATA); obj_mtl and ply start from scratch"; fi
 	@python3 tools/gltf/pygltflib_scene.py fuzz/corpus/gltf/seed.gltf 2>/dev/null || echo "fuzz: pygltflib missing (pip install pygltflib); gltf starts from scratch"
+	@strahl=$$(for b in $(STRAHL) $(or $(CARGO_TARGET_DIR),target)/debug/strahl; do [ -x "$$b" ] && echo "$$b" && break; done); \
+	if [ -n "$$strahl" ]; then \
+	  for c in zip zips none rle piz pxr24 b44; do \
+	    for t in 1 2; do \
+	      SOURCE_DATE_EPOCH=0 $$strahl render scenes/cornell.toml --width 8 --height 6 --spp 1 --passes all --cryptomatte-levels 1 \
+	        --compression $$c --tile $$t/2 -o fuzz/corpus/exr_part/$$c-$$t.exr >/dev/null 2>&1 || exit 1; \
+	    done; \
+	    { cat fuzz/corpus/exr_part/$$c-1.exr; printf '\0strahl\0'; cat fuzz/corpus/exr_part/$$c-2.exr; } > fuzz/corpus/exr_part/$$c-both; \
+	  done; \
+	else echo "fuzz: no strahl binary (make build); exr_part starts from scratch"; fi
 	@for t in $(FUZZ_TARGETS); do \
 	  echo "fuzz: $$t for $(FUZZ_SECONDS) s"; \
 	  (cd fuzz && set -o pipefail && cargo +nightly fuzz run -O $$t corpus/$$t -- -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 2>&1 | grep -E '^(stat::number_of_executed_units|stat::peak_rss_mb|INFO: Done|==[0-9]+== ERROR|SUMMARY|artifact_prefix|Test unit written)') || exit 1; \

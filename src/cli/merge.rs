@@ -1,12 +1,14 @@
 //! `strahl merge OUT.exr PARTS…`: joins the EXRs of regions of one render (`render --region`
-//! or `--tile I/N`) into the whole image, written atomically ([`strahl::output::merge`] states the
-//! rules: one scene and settings, no overlap, a complete cover).
+//! or `--tile I/N`) into the whole image, streamed to a temporary file and renamed
+//! ([`strahl::output::merge`] states the rules: one scene and settings, no overlap, a complete cover,
+//! sizes backed by the files, the memory bound).
 
 use std::path::PathBuf;
 
 use anyhow::bail;
 use clap::Args;
-use strahl::sys::atomic::write_atomically;
+use strahl::output::merge::Source;
+use strahl::sys::atomic::commit_all;
 use strahl::sys::same_file::same_file;
 
 /// Arguments of `strahl merge`.
@@ -18,9 +20,14 @@ pub struct MergeArgs {
     /// The parts: EXRs of regions of one render, in any order.
     #[arg(value_name = "PARTS", required = true)]
     parts: Vec<PathBuf>,
-    /// Threads compressing the merged file [default: one per core].
+    /// Threads compressing the merged file [default: one per core; fewer if the memory
+    /// budget holds fewer].
     #[arg(long, value_name = "T", value_parser = clap::value_parser!(u32).range(1..=4096))]
     threads: Option<u32>,
+    /// Refuse, before writing anything, a merge whose memory bound exceeds this: bytes or
+    /// K/M/G/T (e.g. 8G) [default: as `render`'s].
+    #[arg(long, value_name = "SIZE", value_parser = strahl::sys::memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
@@ -33,9 +40,15 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             bail!("{}: is both a part and the output; merge never overwrites a part", out.display());
         }
     }
+    let plan = strahl::output::merge::plan(args.parts.iter().cloned().map(Source::File).collect())?;
     let threads = strahl::job::thread_count(args.threads.map(|t| t as usize));
-    let bytes = strahl::output::merge::merge(&args.parts, threads)?;
-    write_atomically(out, &bytes)?;
-    println!("merged {} parts into {} ({:.1} MB)", args.parts.len(), out.display(), bytes.len() as f64 / 1e6);
+    let budget = args.max_memory.or_else(|| strahl::sys::memory::default_limit().map(|l| l.bytes)).unwrap_or(u64::MAX);
+    let fit = plan.threads_within(threads, budget)?;
+    if fit < threads {
+        eprintln!("note: merging on {fit} of {threads} threads, which the memory budget holds");
+    }
+    commit_all(vec![plan.stage(out, fit)?])?;
+    let bytes = std::fs::metadata(out).map_or(0, |m| m.len());
+    println!("merged {} parts into {} ({:.1} MB)", args.parts.len(), out.display(), bytes as f64 / 1e6);
     Ok(())
 }

@@ -194,7 +194,14 @@ impl RenderJob {
         }
         let threads = thread_count(settings.threads);
         let (backend, output) = (settings.backend, settings.output);
-        Ok(RenderJob { path: path.to_path_buf(), scene, region, backend, threads, output })
+        let job = RenderJob { path: path.to_path_buf(), scene, region, backend, threads, output };
+        // Every string the EXR will carry, checked before rendering, so that no scene path or
+        // name can make a finished render unwritable.
+        if let Some(output) = &job.output {
+            crate::output::exr::check_encodable(&job.scene.output, &job.exr_options(output))
+                .with_context(|| format!("{}: cannot be written", output.exr.display()))?;
+        }
+        Ok(job)
     }
 
     /// Builds the backend's BVH and renders on a pool of the job's threads. With an output,
@@ -232,12 +239,7 @@ impl RenderJob {
             bail!("{}: this render has no output to write, or it is written", self.path.display());
         };
         let mut options = self.exr_options(output);
-        let info = RenderInfo {
-            scene_file: self.path.display().to_string(),
-            backend: self.backend.name().to_string(),
-            render_seconds: rendered.render_seconds,
-        };
-        options.attributes = crate::output::metadata::attributes(&self.scene, &info);
+        crate::output::metadata::finish(&mut options.attributes, rendered.render_seconds);
         let write_start = Instant::now();
         (observer.note)(&format!("writing {} ...", output.exr.display()));
         let mut staged = vec![blocks.stage(&rendered.film, &options, &output.exr, self.threads)?];
@@ -261,13 +263,19 @@ impl RenderJob {
     }
 
     /// The EXR's layout, known before rendering so that its blocks can be compressed as the
-    /// tiles finish; the header attributes are added after.
+    /// tiles finish, and its header attributes (their date and render time are put in when it
+    /// is written, [`crate::output::metadata::finish`]).
     fn exr_options(&self, output: &Output) -> ExrOptions {
+        let info = RenderInfo {
+            scene_file: self.path.display().to_string(),
+            backend: self.backend.name().to_string(),
+            render_seconds: 0.0,
+        };
         ExrOptions {
             layout: output.layout,
             half: output.half,
             compression: output.compression,
-            attributes: Vec::new(),
+            attributes: crate::output::metadata::attributes(&self.scene, &info),
             object_names: ObjectIds::new(&self.scene).object_names,
             material_names: self.scene.materials.iter().map(|m| m.name.clone()).collect(),
         }

@@ -42,6 +42,15 @@
 //! distance to the first hit, it sorts behind every surface in depth compositing, and it
 //! cannot be mistaken for a real distance.
 //!
+//! **Text.** OpenEXR stores a `string` attribute as a length and bytes, with no encoding of
+//! its own (OpenEXRFileLayout: "a sequence of chars"); the `exr` crate's `Text` constructors
+//! take Latin-1 only. strahl writes every string as its UTF-8 bytes ([`text`]): what the
+//! Cryptomatte specification asks of the names in its manifests (hashed as UTF-8 bytes), what
+//! Blender writes, and what OpenEXR's Python binding decodes a string attribute as. So any scene
+//! path or object name can be written; [`check_encodable`] proves it for a render's header
+//! before the render starts, so that no text can make a finished render unwritable.
+//! Attribute and channel names are strahl's own (1 to 255 bytes, no NUL, as OpenEXR requires).
+//!
 //! **Regions.** A film of a [`crate::output::region::Region`] of the image is written with that region
 //! as the `dataWindow` inside the whole image's `displayWindow`, so compositors place it;
 //! `strahl merge` joins such files through the same writer ([`encode_blocks`]).
@@ -55,15 +64,15 @@
 use std::io::{Cursor, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
-use exr::block::BlockIndex;
 use exr::block::chunk::{Chunk, CompressedBlock, CompressedScanLineBlock};
 use exr::block::writer::{ChunksWriter, ParallelBlocksCompressor, SequentialBlocksCompressor};
+use exr::block::{BlockIndex, UncompressedBlock};
 use exr::meta::attribute::{AttributeValue, ChannelDescription, IntegerBounds, SampleType, Text};
 use exr::meta::header::Header;
 use exr::prelude::{LineOrder, Vec2, f16};
 
 use crate::output::film::{ChannelView, Film};
-use crate::output::passes::Pass;
+use crate::output::passes::{OutputSpec, Pass};
 use crate::sys::atomic::{Staged, WriteError, commit_all, stage_with};
 
 /// How channels are named (see the module docs).
@@ -227,8 +236,19 @@ pub(crate) fn file_channels<'a>(film: &'a Film, options: &ExrOptions) -> Vec<Cha
     channels
 }
 
-fn text(value: &str, what: &str) -> exr::error::Result<Text> {
-    Text::new_or_none(value).ok_or_else(|| exr::error::Error::Invalid(format!("{what} is not Latin-1 text").into()))
+/// A string attribute's value: its UTF-8 bytes (see the module docs); any string is one.
+pub fn text(value: &str) -> Text {
+    Text::from_slice_unchecked(value.as_bytes())
+}
+
+/// An attribute or channel name: its UTF-8 bytes, which OpenEXR ends with a NUL byte and
+/// limits to 255 bytes.
+fn name(value: &str, what: &str) -> exr::error::Result<Text> {
+    if value.is_empty() || value.len() > 255 || value.contains('\0') {
+        let problem = format!("{what} '{}' is not 1 to 255 bytes without NUL", value.escape_debug());
+        return Err(exr::error::Error::Invalid(problem.into()));
+    }
+    Ok(text(value))
 }
 
 /// The file's header.
@@ -237,12 +257,12 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
         .iter()
         .map(|c| {
             let sample_type = if c.half { SampleType::F16 } else { SampleType::F32 };
-            Ok(ChannelDescription::new(text(&c.name, "a channel name")?, sample_type, false))
+            Ok(ChannelDescription::new(name(&c.name, "a channel name")?, sample_type, false))
         })
         .collect::<exr::error::Result<_>>()?;
     // The data window is the film's region, inside the whole image's display window.
     let size = Vec2(film.width as usize, film.height as usize);
-    let mut header = Header::new(text("", "a layer name")?, size, descriptions).with_encoding(
+    let mut header = Header::new(text(""), size, descriptions).with_encoding(
         options.compression.to_exr(),
         exr::meta::BlockDescription::ScanLines,
         LineOrder::Increasing,
@@ -252,31 +272,31 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
     let display = Vec2(film.display_width as usize, film.display_height as usize);
     header.shared_attributes.display_window = IntegerBounds::new((0, 0), display);
     let own = &mut header.own_attributes;
-    for (name, value) in &options.attributes {
+    for (key, value) in &options.attributes {
         // The standard attributes the `exr` crate keeps in fields of its own.
-        match (name.as_str(), value) {
-            ("software", Attribute::Text(s)) => own.software_name = Some(text(s, name)?),
-            ("capDate", Attribute::Text(s)) => own.capture_date = Some(text(s, name)?),
+        match (key.as_str(), value) {
+            ("software", Attribute::Text(s)) => own.software_name = Some(text(s)),
+            ("capDate", Attribute::Text(s)) => own.capture_date = Some(text(s)),
             ("utcOffset", Attribute::Float(f)) => own.utc_offset = Some(*f),
             ("worldToCamera", Attribute::Matrix(m)) => own.world_to_camera = Some(*m),
             ("worldToNDC", Attribute::Matrix(m)) => own.world_to_normalized_device = Some(*m),
             _ => {}
         }
-        if matches!(name.as_str(), "software" | "capDate" | "utcOffset" | "worldToCamera" | "worldToNDC") {
+        if matches!(key.as_str(), "software" | "capDate" | "utcOffset" | "worldToCamera" | "worldToNDC") {
             continue;
         }
         let value = match value {
-            Attribute::Text(s) => AttributeValue::Text(text(s, name)?),
+            Attribute::Text(s) => AttributeValue::Text(text(s)),
             Attribute::Int(i) => AttributeValue::I32(*i),
             Attribute::Float(f) => AttributeValue::F32(*f),
             Attribute::Matrix(m) => AttributeValue::Matrix4x4(*m),
         };
-        own.other.insert(text(name, "an attribute name")?, value);
+        own.other.insert(name(key, "an attribute name")?, value);
     }
     for pass in film.passes().into_iter().filter(|p| p.is_crypto()) {
         let names = if pass == Pass::CryptoObject { &options.object_names } else { &options.material_names };
-        for (name, value) in crate::output::cryptomatte::attributes(&crypto_name(options.layout, pass), names) {
-            own.other.insert(text(&name, "an attribute name")?, AttributeValue::Text(text(&value, &name)?));
+        for (key, value) in crate::output::cryptomatte::attributes(&crypto_name(options.layout, pass), names) {
+            own.other.insert(name(&key, "an attribute name")?, AttributeValue::Text(text(&value)));
         }
     }
     Ok(header)
@@ -313,7 +333,7 @@ pub fn encode_to<W: Write + Seek>(
 ) -> std::result::Result<(), exr::error::Error> {
     let channels = file_channels(film, options);
     let header = header(film, &channels, options)?;
-    write_blocks(header, threads, |index| block_bytes(film, &channels, index), &|_| Ok(None), out)
+    write_blocks(header, threads, |index| Ok(block_bytes(film, &channels, index)), &|_| Ok(None), out)
 }
 
 /// Where a block's compressed bytes may already be: `Ok(Some(bytes))` for block number `i`
@@ -328,7 +348,7 @@ pub(crate) type Compressed<'a> = dyn Fn(usize) -> std::io::Result<Option<Vec<u8>
 fn write_blocks<W: Write + Seek>(
     header: Header,
     threads: usize,
-    block: impl Fn(BlockIndex) -> Vec<u8> + Sync,
+    block: impl Fn(BlockIndex) -> std::io::Result<Vec<u8>> + Sync,
     compressed: &Compressed,
     out: W,
 ) -> std::result::Result<(), exr::error::Error> {
@@ -352,8 +372,9 @@ fn write_blocks<W: Write + Seek>(
                     use rayon::prelude::*;
                     batch
                         .par_iter()
-                        .map(|(i, index)| {
-                            Ok(compressed(*i)?.unwrap_or_else(|| super::exr_zip::compress_block(&block(*index))))
+                        .map(|(i, index)| match compressed(*i)? {
+                            Some(bytes) => Ok(bytes),
+                            None => Ok(super::exr_zip::compress_block(&block(*index)?)),
                         })
                         .collect()
                 });
@@ -373,18 +394,22 @@ fn write_blocks<W: Write + Seek>(
                 }
             }
         }
-        let blocks = meta.collect_ordered_block_data(block);
+        let blocks = meta
+            .enumerate_ordered_header_block_indices()
+            .map(|(i, index)| Ok((i, UncompressedBlock { index, data: block(index)? })));
         if threads > 1 {
             let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
             if let Some(mut parallel) = ParallelBlocksCompressor::new_with_thread_pool(&meta, chunk_writer, pool) {
-                for (index, block) in blocks {
+                for next in blocks {
+                    let (index, block) = next.map_err(exr::error::Error::Io)?;
                     parallel.add_block_to_compression_queue(index, block)?;
                 }
                 return Ok(());
             }
         }
         let mut sequential = SequentialBlocksCompressor::new(&meta, chunk_writer);
-        for (index, block) in blocks {
+        for next in blocks {
+            let (index, block) = next.map_err(exr::error::Error::Io)?;
             sequential.compress_block(index, block)?;
         }
         Ok(())
@@ -395,7 +420,15 @@ fn write_blocks<W: Write + Seek>(
 pub fn encode(film: &Film, options: &ExrOptions, threads: usize) -> std::result::Result<Vec<u8>, exr::error::Error> {
     let channels = file_channels(film, options);
     let header = header(film, &channels, options)?;
-    encode_blocks(header, threads, |index| block_bytes(film, &channels, index))
+    encode_blocks(header, threads, |index| Ok(block_bytes(film, &channels, index)))
+}
+
+/// Checks that a film of `output`'s passes can be written with `options` (its layout, its
+/// Cryptomatte names, its header attributes), by encoding a 1 × 1 film of those passes through
+/// the writer every render uses: called before rendering, so that a render never ends
+/// unwritable for its text (see the module docs).
+pub fn check_encodable(output: &OutputSpec, options: &ExrOptions) -> std::result::Result<(), exr::error::Error> {
+    encode(&Film::with_output(1, 1, output), options, 1).map(drop)
 }
 
 /// The one way strahl makes an EXR file's bytes, a render's and `strahl merge`'s alike: a
@@ -404,7 +437,7 @@ pub fn encode(film: &Film, options: &ExrOptions, threads: usize) -> std::result:
 pub fn encode_blocks(
     header: Header,
     threads: usize,
-    block: impl Fn(BlockIndex) -> Vec<u8> + Sync,
+    block: impl Fn(BlockIndex) -> std::io::Result<Vec<u8>> + Sync,
 ) -> std::result::Result<Vec<u8>, exr::error::Error> {
     let mut bytes = Cursor::new(Vec::new());
     write_blocks(header, threads, block, &|_| Ok(None), &mut bytes)?;
@@ -475,33 +508,70 @@ pub(crate) fn stage_compressed(
     threads: usize,
     compressed: &Compressed,
 ) -> std::result::Result<Staged, WriteError> {
+    let channels = file_channels(film, options);
+    let header =
+        header(film, &channels, options).map_err(|e| WriteError::new(path, format!("cannot encode OpenEXR: {e}")))?;
+    stage_header_blocks(header, threads, |index| Ok(block_bytes(film, &channels, index)), compressed, path)
+}
+
+/// The file of [`encode_blocks`] written to the temporary file of `path` (to be renamed with
+/// [`commit_all`]), its blocks going to the file as they are compressed (the file is never
+/// whole in memory); the header's attributes are then sorted in place. An error of `block`
+/// ends the writing with that error.
+pub fn stage_blocks(
+    header: Header,
+    threads: usize,
+    block: impl Fn(BlockIndex) -> std::io::Result<Vec<u8>> + Sync,
+    path: &Path,
+) -> std::result::Result<Staged, WriteError> {
+    stage_header_blocks(header, threads, block, &|_| Ok(None), path)
+}
+
+fn stage_header_blocks(
+    header: Header,
+    threads: usize,
+    block: impl Fn(BlockIndex) -> std::io::Result<Vec<u8>> + Sync,
+    compressed: &Compressed,
+    path: &Path,
+) -> std::result::Result<Staged, WriteError> {
     let mut encode_error = None;
     let written = stage_with(path, |file| {
-        let channels = file_channels(film, options);
-        let encoded = header(film, &channels, options).and_then(|header| {
-            write_blocks(header, threads, |index| block_bytes(film, &channels, index), compressed, &mut *file)
-        });
-        if let Err(e) = encoded {
-            let problem = format!("cannot encode OpenEXR: {e}");
+        if let Err(e) = write_blocks(header, threads, block, compressed, &mut *file) {
+            let problem = match e {
+                // An error of `block` (or of the disk) as it is.
+                exr::error::Error::Io(e) => return Err(e),
+                e => format!("cannot encode OpenEXR: {e}"),
+            };
             encode_error = Some(problem.clone());
             return Err(std::io::Error::other(problem));
         }
         file.flush()?;
-        let file = file.get_mut();
-        let length = file.seek(SeekFrom::End(0))?;
-        // The header ends where the blocks' offset table begins; 16 MB holds any header.
-        let mut head = vec![0u8; length.min(16 << 20) as usize];
-        file.seek(SeekFrom::Start(0))?;
-        file.read_exact(&mut head)?;
-        if let Some(end) = sort_header_attributes(&mut head) {
-            file.seek(SeekFrom::Start(0))?;
-            file.write_all(&head[..end])?;
-        }
-        Ok(())
+        sort_header_attributes_of(file.get_mut())
     });
     match (written, encode_error) {
         (Err(_), Some(problem)) => Err(WriteError::new(path, problem)),
         (result, _) => result,
+    }
+}
+
+/// [`sort_header_attributes`] on the file `file`: reads the file's start, 1 MB and then four
+/// times more until it holds the whole header (a Cryptomatte manifest of many objects makes a
+/// header of many megabytes), and writes the sorted header back.
+fn sort_header_attributes_of(file: &mut std::fs::File) -> std::io::Result<()> {
+    let length = file.seek(SeekFrom::End(0))?;
+    let mut size = 1u64 << 20;
+    loop {
+        let mut head = vec![0u8; length.min(size) as usize];
+        file.seek(SeekFrom::Start(0))?;
+        file.read_exact(&mut head)?;
+        if let Some(end) = sort_header_attributes(&mut head) {
+            file.seek(SeekFrom::Start(0))?;
+            return file.write_all(&head[..end]);
+        }
+        if size >= length {
+            return Ok(());
+        }
+        size *= 4;
     }
 }
 
@@ -606,6 +676,53 @@ mod tests {
         let _ = std::fs::remove_file(&path);
         assert_eq!(bytes, encode(&f, &options, 1).unwrap());
         let spans = header_attribute_spans(&bytes).unwrap();
+        let names: Vec<&[u8]> = spans.iter().map(|r| bytes[r.clone()].split(|&c| c == 0).next().unwrap()).collect();
+        assert!(names.is_sorted(), "attributes in name order");
+    }
+
+    #[test]
+    fn text_is_utf8_and_bad_names_are_refused_before_writing() {
+        let output = OutputSpec { passes: PassSet::all(), ..Default::default() };
+        let mut options = ExrOptions {
+            attributes: vec![("strahl/scene".into(), Attribute::Text("сцена ❤.toml".into()))],
+            object_names: vec!["шар".into(), "a\"b".into()],
+            material_names: vec!["сталь".into()],
+            ..Default::default()
+        };
+        check_encodable(&output, &options).unwrap();
+        let image = read(&encode(&Film::with_output(2, 2, &output), &options, 1).unwrap());
+        let attributes = &image.layer_data[0].attributes.other;
+        let value = |name: &str| match attributes.get(&Text::from(name)) {
+            Some(AttributeValue::Text(t)) => String::from_utf8(t.as_slice().to_vec()).unwrap(),
+            other => panic!("{name}: {other:?}"),
+        };
+        assert_eq!(value("strahl/scene"), "сцена ❤.toml");
+        let key = crate::output::cryptomatte::key(&crypto_name(Layout::Blender, Pass::CryptoObject));
+        assert_eq!(
+            value(&format!("cryptomatte/{key}/manifest")),
+            crate::output::cryptomatte::manifest(&options.object_names)
+        );
+        for bad in ["a\0b", &"x".repeat(256), ""] {
+            options.attributes = vec![(bad.to_string(), Attribute::Int(1))];
+            assert!(check_encodable(&output, &options).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_header_of_many_megabytes_is_sorted_too() {
+        // 800,000 object names: a 20 MB manifest, more than the first reads of the header.
+        let output = OutputSpec { passes: PassSet::of(&[Pass::Combined, Pass::CryptoObject]), ..Default::default() };
+        let options = ExrOptions {
+            object_names: (0..800_000).map(|i| format!("tree {i}")).collect(),
+            attributes: vec![("b".into(), Attribute::Int(1)), ("a".into(), Attribute::Int(2))],
+            ..Default::default()
+        };
+        let path = std::env::temp_dir().join(format!("strahl-exr-big-header-{}.exr", std::process::id()));
+        write(&Film::with_output(3, 2, &output), &options, &path, 1).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        let spans = header_attribute_spans(&bytes).unwrap();
+        assert!(spans.last().unwrap().end > 16 << 20);
         let names: Vec<&[u8]> = spans.iter().map(|r| bytes[r.clone()].split(|&c| c == 0).next().unwrap()).collect();
         assert!(names.is_sorted(), "attributes in name order");
     }

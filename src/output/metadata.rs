@@ -54,17 +54,14 @@ pub struct RenderInfo {
     pub render_seconds: f64,
 }
 
-/// The attributes of the module docs for `scene`, rendered as `info` says.
+/// The attributes of the module docs for `scene`, rendered as `info` says. A render makes
+/// them before it starts (so that the writer can check them,
+/// [`crate::output::exr::check_encodable`]) and puts the date and time it ends in with [`finish`].
 pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> {
     let text = |s: &str| Attribute::Text(s.to_string());
-    let fixed_date = std::env::var("SOURCE_DATE_EPOCH").ok().and_then(|s| s.trim().parse::<u64>().ok());
-    let seconds = fixed_date.unwrap_or_else(|| SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()));
-    let (y, mo, d, h, mi, s) = civil_utc(seconds);
     let mut out = vec![
         ("software".into(), text(&format!("strahl {}", env!("CARGO_PKG_VERSION")))),
-        ("capDate".into(), text(&format!("{y:04}:{mo:02}:{d:02} {h:02}:{mi:02}:{s:02}"))),
         ("utcOffset".into(), Attribute::Float(0.0)),
-        ("Date".into(), text(&format!("{y:04}/{mo:02}/{d:02} {h:02}:{mi:02}:{s:02}"))),
         ("samplesPerPixel".into(), Attribute::Int(scene.image.spp as i32)),
         ("strahl/maxDepth".into(), Attribute::Int(scene.image.max_depth as i32)),
         ("strahl/backend".into(), text(&info.backend)),
@@ -72,17 +69,36 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         ("strahl/sceneHash".into(), text(&crate::scene::hash::scene_hash_hex(scene))),
         ("strahl/transparent".into(), Attribute::Int(scene.output.transparent as i32)),
     ];
-    if fixed_date.is_none() {
-        let t = info.render_seconds;
-        out.push(("renderTimeSeconds".into(), Attribute::Float(t as f32)));
-        out.push(("RenderTime".into(), text(&render_time_text(t))));
-    }
     if let Ok(camera) = Camera::new(&scene.camera, scene.image.width, scene.image.height) {
         let (to_camera, to_ndc) = camera_matrices(&camera);
         out.push(("worldToCamera".into(), Attribute::Matrix(to_camera)));
         out.push(("worldToNDC".into(), Attribute::Matrix(to_ndc)));
     }
+    finish(&mut out, info.render_seconds);
     out
+}
+
+/// Puts into `attributes` (of [`attributes`]) the date of now and the render time
+/// `render_seconds`, in place of those it had (see the module docs for `SOURCE_DATE_EPOCH`).
+pub fn finish(attributes: &mut Vec<(String, Attribute)>, render_seconds: f64) {
+    let text = |s: &str| Attribute::Text(s.to_string());
+    let fixed_date = std::env::var("SOURCE_DATE_EPOCH").ok().and_then(|s| s.trim().parse::<u64>().ok());
+    let seconds = fixed_date.unwrap_or_else(|| SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()));
+    let (y, mo, d, h, mi, s) = civil_utc(seconds);
+    let mut run = vec![
+        ("capDate".to_string(), text(&format!("{y:04}:{mo:02}:{d:02} {h:02}:{mi:02}:{s:02}"))),
+        ("Date".to_string(), text(&format!("{y:04}/{mo:02}/{d:02} {h:02}:{mi:02}:{s:02}"))),
+    ];
+    if fixed_date.is_none() {
+        run.push(("renderTimeSeconds".into(), Attribute::Float(render_seconds as f32)));
+        run.push(("RenderTime".into(), text(&render_time_text(render_seconds))));
+    }
+    for (name, value) in run {
+        match attributes.iter_mut().find(|(n, _)| *n == name) {
+            Some(entry) => entry.1 = value,
+            None => attributes.push((name, value)),
+        }
+    }
 }
 
 /// The `strahl/scene` entry of the scene file `path`: its file name, however the folder was

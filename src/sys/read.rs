@@ -26,7 +26,7 @@
 //!   file declares: a file read whole, gzip's inflated bytes, a texture's decoded texels
 //!   ([`Held`]: counted while they live), a glTF file's meshes and instances. Each is checked
 //!   against [`remaining_memory`] = budget − [`crate::sys::memory::BASE_BYTES`] − texels held,
-//!   before it is allocated. The render's own estimate ([`crate::memory`]) checks the whole
+//!   before it is allocated. The render's own estimate ([`crate::job::memory`]) checks the whole
 //!   scene afterwards.
 //! - **Confinement** ([`LoadOptions::confine`], `--confine DIR`): every input must resolve,
 //!   after symlinks, inside the folder; the path is canonicalised before it is opened and the
