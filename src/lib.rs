@@ -6,6 +6,7 @@
 
 pub mod accel;
 pub mod bench;
+pub mod bsdf;
 pub mod bvh;
 pub mod camera;
 pub mod checkpoint;
@@ -26,6 +27,7 @@ pub mod optics;
 pub mod passes;
 pub mod region;
 pub mod sampler;
+pub mod sampling;
 pub mod scene;
 pub mod signals;
 pub mod surface;
