@@ -126,15 +126,12 @@ mod tests {
     fn distribution_is_normalised_and_visibility_is_g2() {
         for r in [0.1f32, 0.5, 1.0] {
             let g = Ggx::from_roughness(r);
-            // ∫ D(h) cos θh dω = 1, by midpoint rule in (cos θ², φ) — D is radially symmetric.
-            let n = 20_000;
-            let sum: f64 = (0..n)
-                .map(|i| {
-                    let c2 = (i as f64 + 0.5) / n as f64; // cos²θ, dω cos θ = π d(cos²θ)
-                    let h = Vec3::new((1.0 - c2 as f32).sqrt(), 0.0, (c2 as f32).sqrt());
-                    g.d(h) as f64 * std::f64::consts::PI / n as f64
-                })
-                .sum();
+            // ∫ D(h) cos θh dω = 1; with x = cos²θ, cos θ dω = π dx (D is radially symmetric).
+            let mut d = |x: f64| {
+                let h = Vec3::new((1.0 - x as f32).max(0.0).sqrt(), 0.0, (x as f32).sqrt());
+                g.d(h) as f64 * std::f64::consts::PI
+            };
+            let sum = crate::sampling::quadrature::adaptive_simpson(&mut d, 0.0, 1.0, 1e-9, 40);
             assert!((sum - 1.0).abs() < 2e-3, "r = {r}: ∫ D cos = {sum}");
             for (co, ci) in [(0.9f32, 0.2f32), (0.1, 0.7), (1.0, 1.0)] {
                 let wo = Vec3::new((1.0 - co * co).sqrt(), 0.0, co);
