@@ -36,7 +36,8 @@
 //!
 //! Sampling: visible normals of `wo`, then reflection with probability
 //! `F w̄_R / (F w̄_R + (1 − F) w̄_T)`; or, with probability `1 − E_a(μo)`, a cosine direction on
-//! either side, in proportion to `c_aa P_a : c_ab P_b`. Below [`super::ggx::SMOOTH_ALPHA`], or
+//! either side, in proportion to `c_aa P_a : c_ab P_b` (that probability at least 5 %, which keeps
+//! the weights of these lobes bounded). Below [`super::ggx::SMOOTH_ALPHA`], or
 //! when `η` is 1 (nothing refracts), the interface is smooth: two delta directions.
 
 use std::f32::consts::FRAC_1_PI;
@@ -48,6 +49,9 @@ use super::{LobeFlags, LobeSample};
 use crate::math::{Vec2, Vec3};
 use crate::optics;
 use crate::sampling::square_to_cosine_hemisphere;
+
+/// The least probability of sampling the multiple-scattering lobes (see `Glass::ms_probability`).
+const MS_MIN_PROBABILITY: f32 = 0.05;
 
 /// The glass tables are integrated from this roughness up (smoother glass is a delta interface).
 pub const TABLE_MIN_ROUGHNESS: f32 = 0.02;
@@ -160,10 +164,14 @@ impl Glass {
         (h != Vec3::ZERO && wo.dot(h) > 0.0 && wi.dot(h) < 0.0).then_some(h)
     }
 
-    /// The probability of sampling the multiple-scattering lobes at `μo`.
+    /// The probability of sampling the multiple-scattering lobes at `μo`: their share of the
+    /// energy, but at least [`MS_MIN_PROBABILITY`]. Their shape `1 − E(μi)` is far from the
+    /// cosine they are sampled by when `Ē` is close to 1 (smooth glass loses energy only at
+    /// grazing angles): sampled in proportion to their tiny share, their weights reach
+    /// `(1 − E(μi))/(1 − Ē)` (hundreds), rare fireflies; the floor bounds them by a few units.
     #[inline]
     fn ms_probability(&self, mu_o: f32) -> f32 {
-        self.ms.map_or(0.0, |m| (1.0 - m.above.lookup(mu_o, self.roughness)).clamp(0.0, 1.0))
+        self.ms.map_or(0.0, |m| (1.0 - m.above.lookup(mu_o, self.roughness)).clamp(MS_MIN_PROBABILITY, 1.0))
     }
 
     /// `f` (local, `wo` above; reflection when `wi` is above too).
