@@ -52,8 +52,10 @@ impl Ggx {
         if h.z <= 0.0 {
             return 0.0;
         }
+        // h_z² (α² − 1) + 1 = α² h_z² + h_x² + h_y² for a unit h: no cancellation near the peak
+        // (the other form loses 1e-3 relative at α = 0.01 in f32).
         let a2 = self.alpha * self.alpha;
-        let t = h.z * h.z * (a2 - 1.0) + 1.0;
+        let t = a2 * h.z * h.z + h.x * h.x + h.y * h.y;
         a2 / (PI * t * t)
     }
 

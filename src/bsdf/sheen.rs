@@ -68,7 +68,7 @@ impl Sheen {
         }
         let h = (wo + wi).normalize();
         let inv = 1.0 / self.alpha;
-        let sin2 = (1.0 - h.z * h.z).max(0.0);
+        let sin2 = h.x * h.x + h.y * h.y;
         let d = (2.0 + inv) * sin2.powf(0.5 * inv) / (2.0 * PI);
         let v = 1.0 / ((1.0 + self.lambda(wo.z) + self.lambda(wi.z)) * 4.0 * wo.z * wi.z);
         d * v
