@@ -246,10 +246,12 @@ impl Glass {
             if c <= 0.0 {
                 return None;
             }
+            // A reflection below the surface, or a refraction above it, is no sample: its
+            // direction belongs to the other half of the lobe, whose density it does not have.
             if uc < self.reflect_probability(self.fresnel(c)) {
-                2.0 * c * h - wo
+                Some(2.0 * c * h - wo).filter(|w| w.z > 0.0)?
             } else {
-                refract(wo, h, self.eta)?
+                refract(wo, h, self.eta).filter(|w| w.z < 0.0)?
             }
         };
         if wi.z == 0.0 {

@@ -40,6 +40,25 @@
 //!   `min(1 − A_c(μo), 1 − A_c(μi))` with `A_c` the coat's albedo. The coat uses the shading
 //!   normal (a separate `clearcoatNormal` is not modelled).
 //!
+//! **White furnace** (`white_furnace` in `tests.rs`, printed with `--nocapture`): `∫ f |cos θi| dωi`
+//! for base colour 1, estimated with 2¹⁹ of the BSDF's own samples (standard error ≤ 0.0007),
+//! compensated and, in parentheses, single scattering only:
+//!
+//! ```text
+//! white conductor      μo = 1            0.7               0.4               0.15
+//!   r = 0.05           1.0000 (1.0000)   1.0000 (1.0000)   1.0000 (1.0000)   1.0002 (0.9999)
+//!   r = 0.1            0.9999 (0.9999)   0.9999 (0.9998)   1.0000 (0.9996)   0.9997 (0.9975)
+//!   r = 0.25           1.0002 (0.9958)   1.0000 (0.9932)   0.9999 (0.9830)   1.0000 (0.9242)
+//!   r = 0.5            1.0006 (0.9163)   1.0006 (0.8859)   1.0005 (0.8451)   1.0006 (0.8652)
+//!   r = 0.75           1.0007 (0.6280)   1.0006 (0.6375)   1.0006 (0.6882)   1.0000 (0.8066)
+//!   r = 1              1.0001 (0.3071)   1.0003 (0.3793)   1.0002 (0.4996)   1.0001 (0.6954)
+//! white dielectric     (the base takes what the layer does not reflect: 1 either way)
+//!   r = 0.05 … 1       0.9990 … 1.0006 at every μo
+//! ```
+//!
+//! (The single-scattering conductor figures agree with an independent numpy quadrature of
+//! `D G₂ / (4 μo)` to 0.0003.)
+//!
 //! Roughness 0 (below √[`super::ggx::SMOOTH_ALPHA`]) makes the specular layers and the glass
 //! perfectly specular lobes.
 
