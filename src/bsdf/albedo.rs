@@ -270,7 +270,8 @@ mod glass_table_tests {
             let ggx = Ggx::from_roughness(0.25);
             let wo = at(0.15);
             let g1 = ggx.g1(wo) as f64;
-            let direct = integrate_visible(ggx, wo, &rule, |h| glass::single_scattering_weight(ggx, eta, wo, h) as f64 / g1);
+            let direct =
+                integrate_visible(ggx, wo, &rule, |h| glass::single_scattering_weight(ggx, eta, wo, h) as f64 / g1);
             let t = glass(eta);
             println!("η {eta}: table {} direct {direct} numpy {want}, Ē {}", t.lookup(0.15, 0.25), t.average(0.25));
             assert!((direct as f32 - want).abs() < 2e-3);

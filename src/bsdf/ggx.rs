@@ -151,8 +151,7 @@ mod tests {
         for (r, cos_o) in cases {
             let g = Ggx::from_roughness(r);
             let wo = Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o);
-            let res = Chi2Test::default()
-                .run(|_, u| Some(g.sample_visible(wo, u)), |h| g.visible_pdf(wo, h) as f64);
+            let res = Chi2Test::default().run(|_, u| Some(g.sample_visible(wo, u)), |h| g.visible_pdf(wo, h) as f64);
             assert!(res.passes(sidak(0.01, cases.len())), "r = {r}, cos θo = {cos_o}: {res}");
         }
     }

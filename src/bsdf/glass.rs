@@ -112,7 +112,15 @@ impl Glass {
     /// An interface of glTF roughness `roughness` into a medium of relative index `eta`
     /// (below/above), Schlick parameters `f0`, `f90`, reflection weighted by `reflect_weight`
     /// and transmission by `tint`.
-    pub fn new(reflect_weight: Vec3, tint: Vec3, roughness: f32, eta: f32, f0: f32, f90: f32, compensate: bool) -> Self {
+    pub fn new(
+        reflect_weight: Vec3,
+        tint: Vec3,
+        roughness: f32,
+        eta: f32,
+        f0: f32,
+        f90: f32,
+        compensate: bool,
+    ) -> Self {
         let roughness = roughness.clamp(0.0, 1.0);
         let ggx = Ggx::from_roughness(roughness);
         let smooth = ggx.is_smooth() || (eta - 1.0).abs() < 1e-3;

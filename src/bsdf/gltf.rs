@@ -152,7 +152,10 @@ pub(crate) fn build(p: &PbrParams, frame: Frame, ng: Vec3, front_face: bool, com
     let mut b = Bsdf::new(frame, ng, front_face);
     let spec = GgxReflection::mix(&dielectric, opaque, &metal, m);
     if !spec.is_black() {
-        b.push(Lobe::Microfacet(Microfacet { weight: Vec3::splat(opaque + m), layer: GgxReflection::mix(&dielectric, opaque / (opaque + m), &metal, m / (opaque + m)) }));
+        b.push(Lobe::Microfacet(Microfacet {
+            weight: Vec3::splat(opaque + m),
+            layer: GgxReflection::mix(&dielectric, opaque / (opaque + m), &metal, m / (opaque + m)),
+        }));
     }
     let c_diff = base * opaque;
     if c_diff != Vec3::ZERO {
@@ -199,6 +202,6 @@ pub fn appendix_b(base_color: Vec3, metallic: f32, roughness: f32, n: Vec3, v: V
     let f0 = Vec3::splat(0.04).lerp(base_color, metallic);
     let f = schlick(f0, Vec3::ONE, v.dot(h));
     let ggx = Ggx::from_roughness(roughness);
-    let hl = Vec3::new(0.0, 0.0, n.dot(h)); // D needs only n·h
+    let hl = Vec3::new(n.cross(h).length(), 0.0, n.dot(h)); // D needs only the angle between n and h
     (Vec3::ONE - f) * c_diff * std::f32::consts::FRAC_1_PI + f * (ggx.d(hl) * ggx.visibility(nv, nl))
 }

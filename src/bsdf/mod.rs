@@ -43,8 +43,8 @@ mod specular;
 mod tests;
 
 pub use frame::Frame;
-pub use gltf::{PbrParams, appendix_b, gltf};
 pub use ggx::SMOOTH_ALPHA;
+pub use gltf::{PbrParams, appendix_b, gltf};
 pub use lecture::{LectureParams, lecture};
 
 use crate::math::{Vec2, Vec3};
@@ -322,7 +322,16 @@ impl Bsdf {
     /// An empty BSDF (black) in `frame` with geometric normal `ng` (facing `wo`'s side).
     pub(crate) fn new(frame: Frame, ng: Vec3, front_face: bool) -> Self {
         let black = Lobe::Lambert(lambert::Lambert { color: Vec3::ZERO });
-        Bsdf { frame, ng, front_face, len: 0, sheen: NO_LOBE, coat: NO_LOBE, under: [0; MAX_LOBES], lobes: [black; MAX_LOBES] }
+        Bsdf {
+            frame,
+            ng,
+            front_face,
+            len: 0,
+            sheen: NO_LOBE,
+            coat: NO_LOBE,
+            under: [0; MAX_LOBES],
+            lobes: [black; MAX_LOBES],
+        }
     }
 
     /// Adds a lobe (ignored past [`MAX_LOBES`]; the constructors never exceed it).

@@ -32,10 +32,8 @@ fn gltf_up(p: &PbrParams, front_face: bool) -> Bsdf {
 }
 
 fn chi2(b: &Bsdf, wo: Vec3) -> Chi2Result {
-    let r = Chi2Test::default().run(
-        |ul, u| b.sample(wo, ul, u).filter(|s| !s.flags.is_specular()).map(|s| s.wi),
-        |w| b.pdf(wo, w) as f64,
-    );
+    let r = Chi2Test::default()
+        .run(|ul, u| b.sample(wo, ul, u).filter(|s| !s.flags.is_specular()).map(|s| s.wi), |w| b.pdf(wo, w) as f64);
     assert!(r.pdf_sum <= 1.0 + 2e-3, "the density integrates to {} > 1", r.pdf_sum);
     r
 }
@@ -78,8 +76,12 @@ fn chi2_lecture_lobes() {
 #[test]
 fn chi2_conductor_and_dielectric() {
     for r in [0.1, 0.3, 0.6, 1.0] {
-        let conductor = gltf_up(&PbrParams { base_color: Vec3::new(0.9, 0.6, 0.3), roughness: r, ..Default::default() }, true);
-        let dielectric = gltf_up(&PbrParams { base_color: Vec3::new(0.2, 0.5, 0.8), metallic: 0.0, roughness: r, ..Default::default() }, true);
+        let conductor =
+            gltf_up(&PbrParams { base_color: Vec3::new(0.9, 0.6, 0.3), roughness: r, ..Default::default() }, true);
+        let dielectric = gltf_up(
+            &PbrParams { base_color: Vec3::new(0.2, 0.5, 0.8), metallic: 0.0, roughness: r, ..Default::default() },
+            true,
+        );
         for mu in [0.9, 0.4, 0.1] {
             assert_chi2(&format!("conductor r = {r}"), &conductor, dir(mu));
             assert_chi2(&format!("dielectric r = {r}"), &dielectric, dir(mu));
@@ -127,8 +129,14 @@ fn random_dir(rng: &mut Pcg64Mcg, sign: f32) -> Vec3 {
 fn materials() -> Vec<(String, PbrParams)> {
     let mut v = vec![];
     for r in [0.0, 0.05, 0.3, 1.0] {
-        v.push((format!("conductor r = {r}"), PbrParams { base_color: Vec3::new(0.9, 0.6, 0.3), roughness: r, ..Default::default() }));
-        v.push((format!("dielectric r = {r}"), PbrParams { base_color: Vec3::new(0.2, 0.5, 0.8), metallic: 0.0, roughness: r, ..Default::default() }));
+        v.push((
+            format!("conductor r = {r}"),
+            PbrParams { base_color: Vec3::new(0.9, 0.6, 0.3), roughness: r, ..Default::default() },
+        ));
+        v.push((
+            format!("dielectric r = {r}"),
+            PbrParams { base_color: Vec3::new(0.2, 0.5, 0.8), metallic: 0.0, roughness: r, ..Default::default() },
+        ));
         v.push((format!("glass r = {r}"), glass_params(r)));
         v.push((
             format!("everything r = {r}"),
@@ -197,7 +205,14 @@ fn reflection_is_reciprocal_and_transmission_obeys_eta_squared() {
         }
     }
     // The lecture lobes too.
-    let p = LectureParams { albedo: Vec3::splat(0.5), specular: Vec3::splat(0.4), shininess: 30.0, mirror: Vec3::ZERO, transmission: Vec3::ZERO, ior: 1.5 };
+    let p = LectureParams {
+        albedo: Vec3::splat(0.5),
+        specular: Vec3::splat(0.4),
+        shininess: 30.0,
+        mirror: Vec3::ZERO,
+        transmission: Vec3::ZERO,
+        ior: 1.5,
+    };
     let b = lecture(&p, up(), Vec3::Z, true);
     for _ in 0..500 {
         let (a, c) = (random_dir(&mut rng, 1.0), random_dir(&mut rng, 1.0));
@@ -273,7 +288,9 @@ fn white_furnace() {
         let b = gltf_up(&white(0.0, 0.0, r), true);
         for mu in mus {
             let wo = dir(mu);
-            let (e, _) = furnace_of(&b, wo, 1 << 19, |s| appendix_b(Vec3::ONE, 0.0, r, Vec3::Z, wo, s.wi) * (!s.flags.is_specular()) as u8 as f32);
+            let (e, _) = furnace_of(&b, wo, 1 << 19, |s| {
+                appendix_b(Vec3::ONE, 0.0, r, Vec3::Z, wo, s.wi) * (!s.flags.is_specular()) as u8 as f32
+            });
             print!("{:>26}", format!("{e:.4}"));
         }
         println!();
@@ -288,7 +305,8 @@ fn lecture_reproduces_whitted_optics() {
     let ns = Vec3::new(0.2, -0.1, 1.0).normalize();
     let frame = Frame::from_normal(ns);
     let (albedo, ks, n) = (Vec3::new(0.5, 0.3, 0.1), Vec3::new(0.2, 0.3, 0.4), 25.0);
-    let p = LectureParams { albedo, specular: ks, shininess: n, mirror: Vec3::ZERO, transmission: Vec3::ZERO, ior: 1.5 };
+    let p =
+        LectureParams { albedo, specular: ks, shininess: n, mirror: Vec3::ZERO, transmission: Vec3::ZERO, ior: 1.5 };
     let b = lecture(&p, frame, ns, true);
     for _ in 0..1000 {
         let (wo, wi) = (frame.to_world(random_dir(&mut rng, 1.0)), frame.to_world(random_dir(&mut rng, 1.0)));
@@ -302,7 +320,14 @@ fn lecture_reproduces_whitted_optics() {
     // k_r + k_t R reflected and k_t (1 − R) refracted (× 1/η² for radiance), R from optics.rs.
     for front in [true, false] {
         let (kr, kt, ior) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.6, 0.5, 0.4), 1.5f32);
-        let p = LectureParams { albedo: Vec3::ZERO, specular: Vec3::ZERO, shininess: 0.0, mirror: kr, transmission: kt, ior };
+        let p = LectureParams {
+            albedo: Vec3::ZERO,
+            specular: Vec3::ZERO,
+            shininess: 0.0,
+            mirror: kr,
+            transmission: kt,
+            ior,
+        };
         let b = lecture(&p, up(), Vec3::Z, front);
         let (eta_i, eta_t) = if front { (1.0, ior) } else { (ior, 1.0) };
         for mu in [0.95f32, 0.6, 0.3, 0.1] {

@@ -121,8 +121,9 @@ impl Chi2Test {
             }
             let c = ((w.z as f64 + 1.0) * 0.5 * nc as f64).floor().clamp(0.0, (nc - 1) as f64) as usize;
             let phi = (w.y as f64).atan2(w.x as f64);
-            let p = ((phi + std::f64::consts::PI) / std::f64::consts::TAU * np as f64).floor().clamp(0.0, (np - 1) as f64)
-                as usize;
+            let p = ((phi + std::f64::consts::PI) / std::f64::consts::TAU * np as f64)
+                .floor()
+                .clamp(0.0, (np - 1) as f64) as usize;
             observed[c * np + p] += 1.0;
             landed += 1;
         }

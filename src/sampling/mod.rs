@@ -95,10 +95,8 @@ mod tests {
 
     #[test]
     fn cosine_hemisphere_passes_chi2() {
-        let r = Chi2Test::default().run(
-            |_, u| Some(square_to_cosine_hemisphere(u)),
-            |w| cosine_hemisphere_pdf(w.z) as f64,
-        );
+        let r =
+            Chi2Test::default().run(|_, u| Some(square_to_cosine_hemisphere(u)), |w| cosine_hemisphere_pdf(w.z) as f64);
         assert!(r.passes(sidak(0.01, TESTS)), "{r}");
     }
 
