@@ -54,7 +54,21 @@
 //!   r = 1              1.0001 (0.3071)   1.0003 (0.3793)   1.0002 (0.4996)   1.0001 (0.6954)
 //! white dielectric     (the base takes what the layer does not reflect: 1 either way)
 //!   r = 0.05 … 1       0.9990 … 1.0006 at every μo
+//! clear glass (ior 1.5), from outside, energy units (module docs of super::glass)
+//!   r = 0.25           1.0000 (0.9996)   1.0001 (0.9989)   1.0001 (0.9947)   1.0004 (0.9533)
+//!   r = 0.5            1.0003 (0.9930)   1.0004 (0.9805)   1.0003 (0.9465)   0.9997 (0.9101)
+//!   r = 1              1.0002 (0.8993)   1.0000 (0.8035)   0.9999 (0.7200)   0.9996 (0.7149)
+//! clear glass, from inside
+//!   r = 0.25           0.9995 (0.9959)   1.0004 (0.9883)   1.0007 (0.9810)   1.0018 (0.9186)
+//!   r = 0.5            0.9996 (0.9298)   1.0003 (0.8635)   1.0013 (0.8118)   1.0006 (0.7993)
+//!   r = 1              1.0010 (0.4183)   0.9982 (0.4982)   0.9998 (0.5052)   0.9952 (0.4977)
+//! white dielectric, Appendix B as written ((1 − F(V·H)) diffuse, no compensation)
+//!   r = 0.05           0.9999            1.0006            1.0674            1.4083
+//!   r = 0.5            0.9967            0.9982            1.0256            1.0909
+//!   r = 1              0.9721            0.9741            0.9777            0.9881
 //! ```
+//!
+//! Worst compensated deviation over all 96 entries (4 materials × 6 roughnesses × 4 μo): 0.0048.
 //!
 //! (The single-scattering conductor figures agree with an independent numpy quadrature of
 //! `D G₂ / (4 μo)` to 0.0003.)
