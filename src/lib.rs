@@ -11,6 +11,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod bsdf;
 pub mod camera;
 pub mod farm;
 pub mod geometry;
@@ -22,6 +23,7 @@ pub mod math;
 pub mod optics;
 pub mod output;
 pub mod sampler;
+pub mod sampling;
 pub mod scene;
 pub mod surface;
 pub mod sys;
