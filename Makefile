@@ -141,7 +141,7 @@ FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script texture exr_part
 FUZZ_DATA := $(or $(STRAHL_TEST_DATA),../shared/data)/meshes
 fuzz:
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
-	@mkdir -p $(addprefix fuzz/corpus/,$(FUZZ_TARGETS))
+	@mkdir -p $(addprefix fuzz/corpus/,scene_toml obj_mtl ply gltf texture exr_part $(FUZZ_TARGETS))
 	@cp scenes/*.toml fuzz/corpus/scene_toml/
 	@find docs -size -1000k \( -name '*.png' -o -name '*.jpg' \) -exec cp {} fuzz/corpus/texture/ \;
 	@if [ -d "$(FUZZ_DATA)" ]; then \
