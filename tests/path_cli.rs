@@ -37,7 +37,8 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     assert!(stderr.contains("integrator \"bidirectional\" is not one of"), "{stderr}");
     assert!(!out.exists());
     // In the scene file: named with its line and column.
-    let bad = dir.write("bad.toml", std::fs::read_to_string(cornell()).unwrap() + "\n[render]\nintegrator = \"photons\"\n");
+    let bad =
+        dir.write("bad.toml", std::fs::read_to_string(cornell()).unwrap() + "\n[render]\nintegrator = \"photons\"\n");
     let e = fails(&dir, &["render", bad.to_str().unwrap(), "-o", o]);
     assert!(e.contains("bad.toml:") && e.contains("render: integrator \"photons\""), "{e}");
     std::fs::remove_file(&bad).unwrap();

@@ -7,17 +7,20 @@
 //!   closest hits as one [`Accel::intersect_batch`], the integrator's shading of them
 //!   ([`Integrator::shade_round`]) and the sums of each pixel's samples ([`pixel`]).
 //! - [`render`], [`render_region`], [`render_tiles`]: the scene checked ([`check_scene`]), the
-//!   camera built, and the tile loop with the [`whitted::Whitted`] integrator.
+//!   camera built, and the tile loop with the scene's integrator (`[render] integrator`):
+//!   [`whitted::Whitted`] (the default) or [`path::PathTracer`].
 //! - [`lights`]: the lights as a shading point samples them, and the shadow ray towards each;
 //!   [`shadow`]: the shadow rays of a round's camera hits, traced light by light as batches.
 //!
-//! A new integrator (a path tracer, say) is a file beside [`whitted`] that implements
-//! [`Integrator`]; the tile loop, the pixels' sums, the lights and the shadow batches are
-//! shared.
+//! An integrator is a file beside [`whitted`] and [`path`] that implements [`Integrator`],
+//! including the pixel sampler it draws from ([`PixelSamples`]: Whitted's stratified positions
+//! and light points, the path tracer's Owen-scrambled Sobol sequence); the tile loop, the
+//! pixels' sums, the lights and the shadow batches are shared.
 //!
-//! **Sampling and determinism.** `image.spp` stratified samples per pixel
-//! ([`crate::sampler`], seeded from the pixel index), box-filtered (their mean); `spp = 1`
-//! traces exactly the pixel centre. The image (or the [`Region`] of it being rendered) is split
+//! **Sampling and determinism.** `image.spp` samples per pixel, box-filtered (their mean),
+//! drawn from the integrator's pixel sampler seeded from the pixel index alone: stratified
+//! ([`crate::sampler`]; `spp = 1` traces exactly the pixel centre) for Whitted, Sobol
+//! ([`crate::sampling::sobol`]) for the path tracer. The image (or the [`Region`] of it being rendered) is split
 //! into [`TILE_SIZE`](crate::output::region::TILE_SIZE)² tiles of the image's grid ([`Region::tiles`]) rendered in parallel with
 //! rayon on the current pool. A tile traces its samples round by round, each
 //! round one batch of primary rays ordered in 4×2-pixel blocks (one packet each); a pixel's
