@@ -50,7 +50,9 @@ fn light_passes_sum_to_the_beauty_on_every_shipped_scene() {
     for scene in &scenes {
         for transparent in [false, true] {
             let out = dir.path("sum.exr");
-            let mut extra = vec!["--passes", "all", "--threads", "2"];
+            // The light-path passes are the Whitted integrator's: a path-traced scene
+            // (scenes/cornell-path.toml) is rendered by it here.
+            let mut extra = vec!["--passes", "all", "--threads", "2", "--integrator", "whitted"];
             if transparent {
                 extra.push("--transparent");
             }

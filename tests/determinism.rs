@@ -173,3 +173,35 @@ fn the_cornell_box_renders_as_its_camera_rays_shaded_one_by_one() {
     assert_eq!(counts, by_hand);
     assert!(counts.shadow > 2 * counts.primary && counts.reflected > 0 && counts.refracted > 0, "{counts:?}");
 }
+
+/// The path tracer: the same film for 1 and 2 threads, and two regions rendered apart hold
+/// the bits of the whole frame's pixels (every random number is a function of the pixel's
+/// index, its sample number and the dimension).
+#[test]
+fn the_path_tracer_renders_the_same_bits_on_any_threads_and_in_any_split() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-path.toml");
+    let mut scene = strahl::scene::load(&path).unwrap().scene;
+    assert_eq!(scene.render.integrator, strahl::scene::IntegratorKind::Path);
+    (scene.image.width, scene.image.height, scene.image.spp) = (37, 29, 4);
+    let accel = common::accel(&scene);
+    let render = |threads| pool(threads).install(|| integrator::render(&scene, &accel, &|_| {}).unwrap());
+    let (one, counts_one) = render(1);
+    let (two, counts_two) = render(2);
+    assert!(common::same_bits(&one, &two), "1 and 2 threads differ");
+    assert_eq!(counts_one, counts_two);
+    assert!(counts_one.reflected > counts_one.primary, "paths bounce: {counts_one:?}");
+    // Two bands (the second not on a tile boundary) against the whole frame.
+    use strahl::output::region::Region;
+    for band in [Region { x0: 0, y0: 0, x1: 37, y1: 13 }, Region { x0: 0, y0: 13, x1: 37, y1: 29 }] {
+        let (part, _) = pool(2).install(|| integrator::render_region(&scene, &accel, band, &|_| {}).unwrap());
+        for y in band.y0..band.y1 {
+            for x in 0..37 {
+                let (a, b) = (part.rgba[part.index(x, y)], one.rgba[one.index(x, y)]);
+                assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "pixel {x},{y}");
+            }
+        }
+    }
+    // Not a black image: the box is lit, and its ceiling (lit only indirectly) too.
+    let mean: f32 = one.rgba.iter().map(|p| p[0]).sum::<f32>() / one.rgba.len() as f32;
+    assert!(mean > 0.05, "{mean}");
+}

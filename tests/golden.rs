@@ -32,6 +32,7 @@ const GOLDEN: &[(&str, u64, u64)] = &[
     // triangle: the mesh scenes changed in their last bits, and both backends now agree.
     ("blob", 0x4c0f_4cae_968d_737b, 0x4c0f_4cae_968d_737b),
     ("cornell", 0xa668_d636_2746_bae8, 0xa668_d636_2746_bae8), // area light since issue 13
+    ("cornell-path", 0x9492_cba8_2620_e110, 0x9492_cba8_2620_e110), // the path tracer (issue 32)
     ("lecture", 0x1ba9_6bd1_bbfb_a22c, 0x1ba9_6bd1_bbfb_a22c),
     ("spheres", 0x973f_abf9_e0b1_ba75, 0x973f_abf9_e0b1_ba75),
     ("whitted", 0xace1_ecd7_726a_67a0, 0xace1_ecd7_726a_67a0),

@@ -1,7 +1,8 @@
 //! strahl against Mitsuba 3, a renderer strahl did not write: the Cornell box lit by its area
 //! light, a quad (tools/mitsuba/cornell-diffuse.toml), and by a disk and a sphere light
 //! (tools/mitsuba/cornell-shapes.toml), rendered by this strahl binary and by Mitsuba 3's
-//! `direct` integrator through tools/mitsuba-compare.py, which exits non-zero when a channel's
+//! `direct` integrator, and the same box path-traced (tools/mitsuba/cornell-path.toml) against
+//! Mitsuba's `path` integrator, through tools/mitsuba-compare.py, which exits non-zero when a channel's
 //! image mean differs by more than 1 %, fewer than 99 % of the pixels agree within 3 standard
 //! errors, or the mean signed z-score shows a bias (docs/mitsuba.md). 32×32 pixels, strahl 4
 //! independent copies × 1024 spp, Mitsuba 8 seeds × 1024 spp: a few seconds.
@@ -57,4 +58,9 @@ fn cornell_quad_light_matches_mitsuba() {
 #[test]
 fn disk_and_sphere_lights_match_mitsuba() {
     compare("cornell-shapes.toml");
+}
+
+#[test]
+fn path_traced_cornell_box_matches_mitsubas_path_integrator() {
+    compare("cornell-path.toml");
 }

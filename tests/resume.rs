@@ -200,3 +200,55 @@ fn foreign_stale_and_damaged_checkpoints_are_refused() {
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(text(&o.stderr).contains("resuming from"));
 }
+
+/// Every pass the path tracer writes (the light-path passes are the Whitted integrator's).
+const PATH_PASSES: &str =
+    "combined,depth,normal,albedo,position,object_index,material_index,crypto_object,crypto_material";
+
+/// [`args`] for the path tracer at 2 spp.
+fn path_args(out: &Path, extra: &[&str]) -> Vec<String> {
+    let out = out.to_str().unwrap();
+    let base = ["render", &scene(), "-o", out, "--width", "64", "--height", "48", "--integrator", "path", "--spp", "2"];
+    let mut a: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+    a.extend(["--passes".to_string(), PATH_PASSES.to_string()]);
+    a.extend(extra.iter().map(|s| s.to_string()));
+    a
+}
+
+#[test]
+fn a_path_traced_render_resumes_to_the_same_bytes_and_no_whitted_checkpoint_resumes_it() {
+    let dir = TempDir::new("path");
+    let full = dir.path("full.exr");
+    let o = run(&path_args(&full, &["--threads", "2"]));
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let want = std::fs::read(&full).unwrap();
+    let out = dir.path("term.exr");
+    let child = Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(path_args(&out, &["--threads", "1", "--checkpoint-every", "0"]))
+        .env("SOURCE_DATE_EPOCH", "1700000000")
+        .env("STRAHL_TEST_TILE_DELAY_MS", "40")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_tiles(&checkpoint_of(&out), 5);
+    common::send_signal(&child, "-TERM");
+    let done = child.wait_with_output().unwrap();
+    assert_eq!(done.status.code(), Some(1), "{}", text(&done.stderr));
+    let o = run(&path_args(&out, &["--resume", "--threads", "2"]));
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(std::fs::read(&out).unwrap() == want, "resumed path render: bytes differ");
+    // The EXR says which integrator made it.
+    let image = common::read_exr_image(&out);
+    use exr::meta::attribute::{AttributeValue, Text};
+    let integrator = image.layer_data[0].attributes.other.get(&Text::from("strahl/integrator"));
+    assert_eq!(integrator, Some(&AttributeValue::Text(Text::from("path"))));
+    // A Whitted render's checkpoint of the same scene, settings and file is not resumed by
+    // a path render.
+    let whitted = dir.path("whitted.exr");
+    interrupted(&whitted, &["--spp", "2"]);
+    let a = path_args(&whitted, &["--resume"]);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let e = fails(&dir, &a);
+    assert!(e.contains("a checkpoint of another render"), "{e}");
+}

@@ -245,7 +245,11 @@ fn every_shipped_scene_loads() {
         }
     }
     names.sort();
-    assert_eq!(names, ["blob", "cornell", "lecture", "spheres", "whitted"]);
+    assert_eq!(names, ["blob", "cornell", "cornell-path", "lecture", "spheres", "whitted"]);
+    // The path-traced Cornell box: the same box, chosen for the path tracer.
+    let path = strahl::scene::load(dir.join("cornell-path.toml")).unwrap().scene;
+    assert_eq!(path.render.integrator, strahl::scene::IntegratorKind::Path);
+    assert_eq!(path.image.ambient, Vec3::ZERO);
     let cornell = strahl::scene::load(dir.join("cornell.toml")).unwrap().scene;
     // The published floor corner (549.6, 0, 559.2) mm, in metres.
     assert!(close(cornell.meshes[0].positions[3], Vec3::new(0.5496, 0.0, 0.5592)));

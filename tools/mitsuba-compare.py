@@ -15,7 +15,9 @@ rectangle's [-1, 1]² onto the parallelogram and its +z normal onto edge1 × edg
 (`fov_axis = 'y'`); a `box` reconstruction filter (each sample counts for its own pixel only, as
 strahl's mean over the pixel); the `direct` integrator with one emitter sample and no BSDF
 sample (light sampling by area, an unbiased estimate of emission plus direct light, exactly what
-strahl's Whitted integrator computes in an all-diffuse scene); variant `scalar_rgb`.
+strahl's Whitted integrator computes in an all-diffuse scene), or for a scene with
+`[render] integrator = "path"` Mitsuba's `path` integrator with the same number of bounces
+(tools/mitsuba/cornell-path.toml); variant `scalar_rgb`.
 
 **Noise.** Both images are Monte Carlo estimates, so each pixel's difference is compared with
 its standard error, and each renderer's error is measured from independent renders:
@@ -113,6 +115,15 @@ def disk_to_world(center, normal, radius):
     return mi.ScalarTransform4f(mi.ScalarMatrix4f(m))
 
 
+def integrator(toml):
+    """Mitsuba's `direct` for strahl's Whitted integrator, its `path` for strahl's path tracer
+    (`[render] integrator = "path"`) with the same bounces: Mitsuba's `max_depth` counts path
+    segments (1 shows the emitters only), strahl's scatterings (0 does), so it is strahl's + 1."""
+    if toml.get("render", {}).get("integrator", "whitted") == "path":
+        return {"type": "path", "max_depth": int(toml.get("image", {}).get("max_depth", 8)) + 1}
+    return {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
+
+
 def mitsuba_scene(toml, size, spp, tmp):
     """The scene dictionary for mi.load_dict; refuses what it does not translate."""
     cam, image = toml["camera"], toml.get("image", {})
@@ -129,7 +140,7 @@ def mitsuba_scene(toml, size, spp, tmp):
         }
     scene = {
         "type": "scene",
-        "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0},
+        "integrator": integrator(toml),
         "sensor": {
             "type": "perspective",
             "fov": float(cam["fov_deg"]),
@@ -244,7 +255,7 @@ def main():
 
     print(f"scene {args.scene}, {n}×{n} pixels")
     print(f"strahl:  {args.copies} × {args.spp} spp in {t_strahl:.1f} s; "
-          f"Mitsuba {mi.__version__} scalar_rgb direct: {args.seeds} × {per_seed} spp in {t_mitsuba:.1f} s")
+          f"Mitsuba {mi.__version__} scalar_rgb {integrator(toml)['type']}: {args.seeds} × {per_seed} spp in {t_mitsuba:.1f} s")
     means_s, means_m = s.mean(axis=(0, 1)), m.mean(axis=(0, 1))
     rel = (means_s - means_m) / means_m
     # The standard error of the difference of the two image means (pixels are independent).

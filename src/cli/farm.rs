@@ -171,6 +171,13 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     if let Some(&levels) = m.get_one::<u32>("cryptomatte_levels") {
         scene_data.output.crypto_levels = levels;
     }
+    if let Some(&integrator) = m.get_one::<strahl::scene::IntegratorKind>("integrator") {
+        scene_data.render.integrator = integrator;
+    }
+    if let Some(&clamp) = m.get_one::<f32>("clamp") {
+        scene_data.render.clamp = Some(clamp);
+    }
+    strahl::integrator::check_render(scene_data).map_err(|e| anyhow::anyhow!("{}: {e}", scene.display()))?;
     if let Some(&ev) = m.get_one::<f32>("exposure") {
         if !ev.is_finite() {
             bail!("-- --exposure {ev} is not a finite number of stops");

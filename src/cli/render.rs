@@ -16,6 +16,7 @@ use clap::Args;
 use strahl::job::{Observer, Output, RenderJob, Settings};
 use strahl::output::exr::Compression;
 use strahl::output::passes::MAX_CRYPTO_LEVELS;
+use strahl::scene::IntegratorKind;
 use strahl::scene::load::MeshFormat;
 
 /// Arguments of `strahl render`.
@@ -58,6 +59,15 @@ pub struct RenderArgs {
     /// Exposure of the PNG preview in stops: its radiance is multiplied by 2^EV.
     #[arg(long, value_name = "EV", default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
+    /// What computes the light: the lecture's ray tracer (`whitted`), or the path tracer
+    /// (`path`: indirect light, next-event estimation with MIS) [default: the scene's
+    /// `[render] integrator`, else whitted].
+    #[arg(long, value_name = "NAME", value_parser = parse_integrator)]
+    integrator: Option<IntegratorKind>,
+    /// The path tracer's clamp: every contribution of light that scattered twice or more is
+    /// scaled so its largest channel is at most C (less fireflies, less energy) [default: off].
+    #[arg(long, value_name = "C", allow_negative_numbers = true)]
+    clamp: Option<f32>,
     /// What finds the closest hits: Intel Embree, or strahl's own BVH.
     #[arg(long, value_enum, default_value_t = Backend::Embree)]
     backend: Backend,
@@ -136,6 +146,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         threads: args.threads.map(|t| t as usize),
         max_memory: args.max_memory,
         output: Some(output),
+        integrator: args.integrator,
+        clamp: args.clamp,
     };
     let job = RenderJob::new(&args.scene, loaded.scene, settings)?;
     let bar = Progress::new(job.region.pixel_count());
@@ -146,4 +158,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let write_seconds = job.write(&mut rendered, &observer)?;
     print!("{}", job.summary(&rendered, write_seconds));
     Ok(())
+}
+
+/// `--integrator`: `path` or `whitted`.
+fn parse_integrator(name: &str) -> Result<IntegratorKind, String> {
+    IntegratorKind::parse(name)
 }

@@ -7,17 +7,20 @@
 //!   closest hits as one [`Accel::intersect_batch`], the integrator's shading of them
 //!   ([`Integrator::shade_round`]) and the sums of each pixel's samples ([`pixel`]).
 //! - [`render`], [`render_region`], [`render_tiles`]: the scene checked ([`check_scene`]), the
-//!   camera built, and the tile loop with the [`whitted::Whitted`] integrator.
+//!   camera built, and the tile loop with the scene's integrator (`[render] integrator`):
+//!   [`whitted::Whitted`] (the default) or [`path::PathTracer`].
 //! - [`lights`]: the lights as a shading point samples them, and the shadow ray towards each;
 //!   [`shadow`]: the shadow rays of a round's camera hits, traced light by light as batches.
 //!
-//! A new integrator (a path tracer, say) is a file beside [`whitted`] that implements
-//! [`Integrator`]; the tile loop, the pixels' sums, the lights and the shadow batches are
-//! shared.
+//! An integrator is a file beside [`whitted`] and [`path`] that implements [`Integrator`],
+//! including the pixel sampler it draws from ([`PixelSamples`]: Whitted's stratified positions
+//! and light points, the path tracer's Owen-scrambled Sobol sequence); the tile loop, the
+//! pixels' sums, the lights and the shadow batches are shared.
 //!
-//! **Sampling and determinism.** `image.spp` stratified samples per pixel
-//! ([`crate::sampler`], seeded from the pixel index), box-filtered (their mean); `spp = 1`
-//! traces exactly the pixel centre. The image (or the [`Region`] of it being rendered) is split
+//! **Sampling and determinism.** `image.spp` samples per pixel, box-filtered (their mean),
+//! drawn from the integrator's pixel sampler seeded from the pixel index alone: stratified
+//! ([`crate::sampler`]; `spp = 1` traces exactly the pixel centre) for Whitted, Sobol
+//! ([`crate::sampling::sobol`]) for the path tracer. The image (or the [`Region`] of it being rendered) is split
 //! into [`TILE_SIZE`](crate::output::region::TILE_SIZE)² tiles of the image's grid ([`Region::tiles`]) rendered in parallel with
 //! rayon on the current pool. A tile traces its samples round by round, each
 //! round one batch of primary rays ordered in 4×2-pixel blocks (one packet each); a pixel's
@@ -30,6 +33,9 @@
 //! exactly one tile, so the order tiles finish in does not matter.
 
 pub mod lights;
+pub mod path;
+pub mod path_lights;
+pub mod path_shading;
 pub mod pixel;
 pub mod shadow;
 pub mod whitted;
@@ -39,18 +45,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
+pub use path::PathTracer;
 pub use pixel::{CameraSample, FirstHit, Radiance};
-pub use whitted::Whitted;
+pub use whitted::{Whitted, WhittedSampler};
 
 use crate::accel::{Accel, Hit, TraceError};
 use crate::camera::Camera;
-use crate::math::Ray;
+use crate::math::{Ray, Vec2};
 use crate::output::film::Film;
 use crate::output::ids::ObjectIds;
 use crate::output::passes::Pass;
 use crate::output::region::Region;
-use crate::sampler::{PixelSampler, SampleDims};
-use crate::scene::{MAX_DEPTH_LIMIT, Scene};
+use crate::scene::{IntegratorKind, MAX_DEPTH_LIMIT, Scene};
 use pixel::PixelAccumulator;
 
 /// Rays traced, by kind, for the summary the command prints.
@@ -93,7 +99,19 @@ pub enum RenderError {
     InvalidScene(String),
 }
 
-/// What shades the camera rays of a sample round: [`Whitted`], and any integrator beside it.
+/// The random numbers of one pixel's samples, as the tile loop draws the camera rays from
+/// them; the integrator draws the rest from the same sampler in [`Integrator::shade_round`].
+pub trait PixelSamples {
+    /// Starts the pixel's sample `sample` (they come in order `0..spp`).
+    fn begin(&mut self, sample: u32);
+    /// The sample's position in the pixel, in `[0, 1)²`.
+    fn pixel(&mut self) -> Vec2;
+    /// The sample's lens point in `[0, 1)²` (drawn after [`PixelSamples::pixel`], only with an
+    /// aperture).
+    fn lens(&mut self) -> Vec2;
+}
+
+/// What shades the camera rays of a sample round: [`Whitted`], [`PathTracer`].
 /// The tile loop ([`trace_tiles`]) makes the rays, finds their closest hits and sums what
 /// this returns into the pixels; an integrator turns each ray and hit into a
 /// [`CameraSample`], tracing whatever further rays it needs.
@@ -101,19 +119,23 @@ pub trait Integrator: Sync {
     /// Working memory of one tile, reused from round to round (shadow-ray batches, ...).
     type Scratch: Default;
 
-    /// Whether shading draws light sample points ([`SampleDims::light`]): then every pixel's
-    /// sample dimensions include them.
-    fn samples_lights(&self) -> bool;
+    /// One pixel's sampler.
+    type Sampler: PixelSamples;
+
+    /// The sampler of the pixel with index `pixel_index` (`y·W + x`) for `spp` samples; `lens`
+    /// when the camera has an aperture. It may depend on nothing else.
+    fn sampler(&self, spp: u32, pixel_index: u64, lens: bool) -> Self::Sampler;
 
     /// Shades one round: `out[i]` for the camera ray `rays[i]`, whose closest hit is `hits[i]`
-    /// and whose pixel's sample dimensions are `dims[i]` (begun for this round). Adds the rays
-    /// it traces to `counts`. Each pixel's sample must depend on nothing but that pixel's
-    /// ray, hit and dimensions, so that a render is the same for any split into tiles.
+    /// and whose pixel's sampler is `samplers[i]` (begun for this round, the camera's
+    /// numbers drawn). Adds the rays it traces to `counts`. Each pixel's sample must depend on
+    /// nothing but that pixel's ray, hit and sampler, so that a render is the same for any
+    /// split into tiles.
     fn shade_round(
         &self,
         rays: &[Ray],
         hits: &[Option<Hit>],
-        dims: &mut [SampleDims],
+        samplers: &mut [Self::Sampler],
         counts: &mut RayCounts,
         scratch: &mut Self::Scratch,
         out: &mut [CameraSample],
@@ -180,8 +202,10 @@ pub fn render_tiles<A: Accel>(
     check_scene(scene)?;
     let img = &scene.image;
     let camera = Camera::new(&scene.camera, img.width, img.height)?;
-    let whitted = Whitted::new(scene, accel, camera);
-    trace_tiles(scene, accel, &camera, &whitted, film, job)
+    match scene.render.integrator {
+        IntegratorKind::Whitted => trace_tiles(scene, accel, &camera, &Whitted::new(scene, accel, camera), film, job),
+        IntegratorKind::Path => trace_tiles(scene, accel, &camera, &PathTracer::new(scene, accel), film, job),
+    }
 }
 
 /// The tile loop: [`render_tiles`] with `integrator` shading the camera rays of `camera`
@@ -246,20 +270,9 @@ fn render_tile<A: Accel, I: Integrator>(
     let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
     let pixels = tile.pixels_in_packet_order();
     let spp = scene.image.spp;
-    let mut samplers: Vec<PixelSampler> =
-        pixels.iter().map(|&(x, y)| PixelSampler::new(spp, y as u64 * width + x as u64)).collect();
-    let lights = integrator.samples_lights();
     let lens = camera.has_lens();
-    let mut dims: Vec<SampleDims> = pixels
-        .iter()
-        .map(|&(x, y)| {
-            if lights || lens {
-                SampleDims::new(spp, y as u64 * width + x as u64, lights, lens)
-            } else {
-                SampleDims::unused()
-            }
-        })
-        .collect();
+    let mut samplers: Vec<I::Sampler> =
+        pixels.iter().map(|&(x, y)| integrator.sampler(spp, y as u64 * width + x as u64, lens)).collect();
     let mut accumulators = vec![PixelAccumulator::default(); pixels.len()];
     let mut counts = RayCounts::default();
     let mut rays = Vec::with_capacity(pixels.len());
@@ -268,10 +281,10 @@ fn render_tile<A: Accel, I: Integrator>(
     let mut samples = vec![CameraSample::default(); pixels.len()];
     let mut scratch = I::Scratch::default();
     for sample in 0..spp {
-        camera_rays(camera, &pixels, &mut samplers, &mut dims, sample, &mut rays);
+        camera_rays(camera, &pixels, &mut samplers, sample, &mut rays);
         counts.primary += rays.len() as u64;
         accel.intersect_batch(&rays, &mut hits)?;
-        integrator.shade_round(&rays, &hits, &mut dims, &mut counts, &mut scratch, &mut samples)?;
+        integrator.shade_round(&rays, &hits, &mut samplers, &mut counts, &mut scratch, &mut samples)?;
         for (acc, s) in accumulators.iter_mut().zip(&samples) {
             let object = s.first.filter(|_| crypto).map(|f| ids.object_of(scene, &f.hit));
             acc.add(s.radiance, &s.split, s.first, object);
@@ -281,23 +294,45 @@ fn render_tile<A: Accel, I: Integrator>(
 }
 
 /// The camera rays of round `sample` into `rays`, one per pixel: the pinhole ray through the
-/// pixel's next sample position, or with a thin lens the ray from the lens point its sample
-/// dimensions give ([`SampleDims::begin`] starts the round's dimensions).
-fn camera_rays(
+/// pixel's sample position, or with a thin lens the ray from the sample's lens point
+/// ([`PixelSamples::begin`] starts the round's numbers).
+fn camera_rays<S: PixelSamples>(
     camera: &Camera,
     pixels: &[(u32, u32)],
-    samplers: &mut [PixelSampler],
-    dims: &mut [SampleDims],
+    samplers: &mut [S],
     sample: u32,
     rays: &mut Vec<Ray>,
 ) {
     let lens = camera.has_lens();
     rays.clear();
-    rays.extend(pixels.iter().zip(samplers).zip(dims).map(|((&(x, y), s), d)| {
-        d.begin(sample);
-        let offset = s.next_offset();
-        if lens { camera.lens_ray(x, y, offset, d.lens()) } else { camera.ray(x, y, offset) }
+    rays.extend(pixels.iter().zip(samplers).map(|(&(x, y), s)| {
+        s.begin(sample);
+        let offset = s.pixel();
+        if lens { camera.lens_ray(x, y, offset, s.lens()) } else { camera.ray(x, y, offset) }
     }));
+}
+
+/// Checks the `[render]` settings against the rest of the scene: the clamp, and for the path
+/// tracer the samples its Sobol sequence holds and the passes it writes. Part of
+/// [`check_scene`]; also called by a job before anything is loaded or built.
+pub fn check_render(scene: &Scene) -> Result<(), RenderError> {
+    if let Some(problem) = scene.render.problem() {
+        return Err(RenderError::InvalidScene(format!("render: {problem}")));
+    }
+    if scene.render.integrator == IntegratorKind::Path {
+        if let Err(problem) = crate::sampling::sobol::check_spp(scene.image.spp) {
+            return Err(RenderError::InvalidScene(format!("image: {problem}")));
+        }
+        if let Some(p) = scene.output.passes.iter().find(|p| p.is_light()) {
+            let problem = format!(
+                "the {} pass is the Whitted integrator's; with --integrator path strahl writes combined \
+                 and the first-hit passes (depth, normal, albedo, position, indices, Cryptomatte)",
+                p.name()
+            );
+            return Err(RenderError::InvalidScene(format!("passes: {problem}")));
+        }
+    }
+    Ok(())
 }
 
 /// Checks everything the integrator indexes or divides by, so that rendering cannot panic or
@@ -307,6 +342,7 @@ pub fn check_scene(scene: &Scene) -> Result<(), RenderError> {
     if scene.image.spp == 0 {
         return bad("image".into(), "spp 0 must be at least 1".into());
     }
+    check_render(scene)?;
     if scene.image.max_depth > MAX_DEPTH_LIMIT {
         return bad("image".into(), format!("max_depth {} exceeds {MAX_DEPTH_LIMIT}", scene.image.max_depth));
     }

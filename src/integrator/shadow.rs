@@ -36,13 +36,13 @@ impl ShadowBatch {
     /// calls `lit(i, point, incidence)` for every ray that reaches its light: light by light,
     /// and pixel by pixel within a light. Counts the rays in `counts.shadow`.
     #[allow(clippy::too_many_arguments)] // the accel, the lights, the points, and what they add to
-    pub fn trace<A: Accel>(
+    pub fn trace<A: Accel, D: AsMut<SampleDims>>(
         &mut self,
         accel: &A,
         lights: &Lights,
         points: &[Option<SurfacePoint>],
         casts: impl Fn(&SurfacePoint) -> bool,
-        dims: &mut [SampleDims],
+        dims: &mut [D],
         counts: &mut RayCounts,
         mut lit: impl FnMut(usize, &SurfacePoint, &Incidence),
     ) -> Result<(), TraceError> {
@@ -56,7 +56,7 @@ impl ShadowBatch {
             self.owners.clear();
             for (i, ((p, d), origin)) in points.iter().zip(dims.iter_mut()).zip(&self.origins).enumerate() {
                 let (Some(sp), Some(origin)) = (p, origin) else { continue };
-                let Some(inc) = lights.incidence(&slot, sp.p, d) else { continue };
+                let Some(inc) = lights.incidence(&slot, sp.p, d.as_mut()) else { continue };
                 let Some(shadow) = shadow_ray(sp, *origin, &inc) else { continue };
                 self.rays.push(shadow);
                 self.owners.push((i, inc));

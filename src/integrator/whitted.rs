@@ -66,14 +66,14 @@
 use super::lights::{Lights, shadow_ray};
 use super::pixel::{CameraSample, FirstHit, Radiance};
 use super::shadow::ShadowBatch;
-use super::{Integrator, RayCounts};
+use super::{Integrator, PixelSamples, RayCounts};
 use crate::accel::{Accel, Hit, TraceError};
 use crate::camera::Camera;
 use crate::light::Incidence;
 use crate::material::Material;
-use crate::math::{Ray, Vec3, offset_ray_origin};
+use crate::math::{Ray, Vec2, Vec3, offset_ray_origin};
 use crate::optics;
-use crate::sampler::SampleDims;
+use crate::sampler::{PixelSampler, SampleDims};
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
 
@@ -98,11 +98,44 @@ pub struct WhittedScratch {
     batch: ShadowBatch,
 }
 
+/// A pixel's samples for the Whitted integrator: stratified positions ([`PixelSampler`]) and
+/// the stratified light and lens points ([`SampleDims`]), as [`crate::sampler`] describes.
+#[derive(Clone, Debug)]
+pub struct WhittedSampler {
+    pub pixel: PixelSampler,
+    pub dims: SampleDims,
+}
+
+impl PixelSamples for WhittedSampler {
+    fn begin(&mut self, sample: u32) {
+        self.dims.begin(sample);
+    }
+
+    fn pixel(&mut self) -> Vec2 {
+        self.pixel.next_offset()
+    }
+
+    fn lens(&mut self) -> Vec2 {
+        self.dims.lens()
+    }
+}
+
+impl AsMut<SampleDims> for WhittedSampler {
+    fn as_mut(&mut self) -> &mut SampleDims {
+        &mut self.dims
+    }
+}
+
 impl<A: Accel> Integrator for Whitted<'_, A> {
     type Scratch = WhittedScratch;
+    type Sampler = WhittedSampler;
 
-    fn samples_lights(&self) -> bool {
-        self.lights.sampled()
+    /// Light sample points are drawn only when the scene has sampled lights, lens points only
+    /// with an aperture: a pinhole scene with point lights draws nothing but the positions.
+    fn sampler(&self, spp: u32, pixel_index: u64, lens: bool) -> WhittedSampler {
+        let lights = self.lights.sampled();
+        let dims = if lights || lens { SampleDims::new(spp, pixel_index, lights, lens) } else { SampleDims::unused() };
+        WhittedSampler { pixel: PixelSampler::new(spp, pixel_index), dims }
     }
 
     /// Emission, then the direct light with the shadow rays towards each light (sample) traced
@@ -113,7 +146,7 @@ impl<A: Accel> Integrator for Whitted<'_, A> {
         &self,
         rays: &[Ray],
         hits: &[Option<Hit>],
-        dims: &mut [SampleDims],
+        dims: &mut [WhittedSampler],
         counts: &mut RayCounts,
         scratch: &mut WhittedScratch,
         out: &mut [CameraSample],
@@ -134,8 +167,16 @@ impl<A: Accel> Integrator for Whitted<'_, A> {
         {
             o.first = match (p, hit) {
                 (Some(sp), Some(hit)) => {
-                    o.radiance =
-                        self.shade_indirect(ray, sp, 0, Vec3::ONE, d, counts, o.radiance, Some(&mut o.split))?;
+                    o.radiance = self.shade_indirect(
+                        ray,
+                        sp,
+                        0,
+                        Vec3::ONE,
+                        &mut d.dims,
+                        counts,
+                        o.radiance,
+                        Some(&mut o.split),
+                    )?;
                     Some(FirstHit::new(sp, hit))
                 }
                 _ => None,

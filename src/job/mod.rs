@@ -129,6 +129,10 @@ pub struct Settings {
     pub max_memory: Option<u64>,
     /// The files to write; `None` renders to memory.
     pub output: Option<Output>,
+    /// The integrator (overrides the scene's `[render] integrator`).
+    pub integrator: Option<crate::scene::IntegratorKind>,
+    /// The path tracer's clamp of indirect light (overrides `[render] clamp`).
+    pub clamp: Option<f32>,
 }
 
 /// A render ready to run: its scene with the settings applied, and everything checked.
@@ -188,6 +192,9 @@ impl RenderJob {
         }
         scene.output.transparent |= settings.transparent;
         scene.output.crypto_levels = settings.crypto_levels.unwrap_or(scene.output.crypto_levels);
+        scene.render.integrator = settings.integrator.unwrap_or(scene.render.integrator);
+        scene.render.clamp = settings.clamp.or(scene.render.clamp);
+        crate::integrator::check_render(&scene).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         refuse_over_budget(path, settings.max_memory, &scene, region)?;
         if let Some(every) = settings.output.as_ref().map(|o| o.checkpoint_every) {
             checkpoint_interval(every)?;

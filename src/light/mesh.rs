@@ -63,10 +63,9 @@ impl MeshEmitter {
         self.cdf.last().copied().unwrap_or(0.0)
     }
 
-    /// One sample of the mesh seen from `p` for the point `u ∈ [0, 1)²`, as
-    /// [`crate::light::area::AreaLight::sample`]; `None` when the point is `p` itself or seen
-    /// edge-on.
-    pub fn sample(&self, p: Vec3, u: Vec2) -> Option<Incidence> {
+    /// The point of the mesh for `u ∈ [0, 1)²` (uniform by area), the unit normal of its
+    /// triangle (by the winding) and the triangle's index.
+    pub fn sample_point(&self, u: Vec2) -> (DVec3, DVec3, usize) {
         let total = self.area();
         let target = u.x as f64 * total;
         let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
@@ -75,7 +74,20 @@ impl MeshEmitter {
         let [a, b, c] = self.corners[i];
         let s = u1.sqrt();
         let y = (1.0 - s) * a + s * (1.0 - u.y as f64) * b + s * u.y as f64 * c;
-        let normal = (b - a).cross(c - a).normalize();
+        (y, (b - a).cross(c - a).normalize(), i)
+    }
+
+    /// The radiance of triangle `i` (an index [`MeshEmitter::sample_point`] returns).
+    pub fn radiance(&self, i: usize) -> Vec3 {
+        self.radiance[i]
+    }
+
+    /// One sample of the mesh seen from `p` for the point `u ∈ [0, 1)²`, as
+    /// [`crate::light::area::AreaLight::sample`]; `None` when the point is `p` itself or seen
+    /// edge-on.
+    pub fn sample(&self, p: Vec3, u: Vec2) -> Option<Incidence> {
+        let total = self.area();
+        let (y, normal, i) = self.sample_point(u);
         let to = y - p.as_dvec3();
         let d2 = to.length_squared();
         let w = to / d2.sqrt();

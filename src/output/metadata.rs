@@ -10,6 +10,7 @@
 //! | `RenderTime` | string | the same as Blender writes it, `MM:SS.ss` |
 //! | `samplesPerPixel` | int | samples per pixel (as pbrt-v4) |
 //! | `strahl/maxDepth` | int | longest chain of reflected/refracted rays |
+//! | `strahl/integrator` | string | `whitted` or `path` |
 //! | `strahl/backend` | string | `embree` or `native` |
 //! | `strahl/scene` | string | the scene file's name, without its folder ([`scene_entry`]) |
 //! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
@@ -64,6 +65,7 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         ("utcOffset".into(), Attribute::Float(0.0)),
         ("samplesPerPixel".into(), Attribute::Int(scene.image.spp as i32)),
         ("strahl/maxDepth".into(), Attribute::Int(scene.image.max_depth as i32)),
+        ("strahl/integrator".into(), text(scene.render.integrator.name())),
         ("strahl/backend".into(), text(&info.backend)),
         ("strahl/scene".into(), text(&scene_entry(&info.scene_file))),
         ("strahl/sceneHash".into(), text(&crate::scene::hash::scene_hash_hex(scene))),

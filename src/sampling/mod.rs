@@ -1,5 +1,6 @@
 //! Warps from the unit square to the disk, the hemisphere and the sphere, each with its density,
-//! and the tools that check sampling routines ([`chi2`]) and integrate tables ([`quadrature`]).
+//! and the tools that check sampling routines ([`chi2`]) and integrate tables ([`quadrature`]); the path tracer's
+//! Owen-scrambled Sobol sampler ([`sobol`]).
 //!
 //! ```text
 //! disk (Shirley–Chiu concentric)   p = 1/π                      (area)
@@ -12,6 +13,7 @@
 
 pub mod chi2;
 pub mod quadrature;
+pub mod sobol;
 
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 

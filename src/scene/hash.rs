@@ -10,7 +10,9 @@
 //! scenes feed the same bytes:
 //!
 //! - the `Debug` text of the small settings: camera, image, output, lights, area lights,
-//!   object names (every field, including fields added later);
+//!   object names (every field, including fields added later), and the `[render]` settings
+//!   (the integrator) unless they are the default (Whitted's, which thus fingerprints as
+//!   before);
 //! - per material its `Debug` text with the texels of its image left out, then the image's
 //!   texels as bytes;
 //! - the spheres, planes, meshes, prototypes and instances, field by field, as bytes.
@@ -33,7 +35,7 @@ use std::sync::{Arc, LazyLock, Mutex, Weak};
 use rayon::prelude::*;
 use xxhash_rust::xxh3::{Xxh3, xxh3_64};
 
-use super::{Mesh, Scene};
+use super::{Mesh, RenderSpec, Scene};
 use crate::material::{Material, Texture};
 use crate::texture::{Image, ImageTexture};
 
@@ -169,6 +171,10 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     f.text(&scene.lights);
     f.text(&scene.area_lights);
     f.text(&scene.names);
+    // The Whitted integrator's settings feed nothing, so its fingerprints stay as they were.
+    if scene.render != RenderSpec::default() {
+        f.text(&scene.render);
+    }
     f.u64(scene.materials.len() as u64);
     for m in &scene.materials {
         f.material(m);

@@ -115,6 +115,54 @@ impl Default for ImageSpec {
     }
 }
 
+/// Which integrator renders a scene (`[render] integrator`, `--integrator`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum IntegratorKind {
+    /// The lecture's ray tracer: direct light, mirrors, glass, an ambient term
+    /// ([`crate::integrator::whitted`]).
+    #[default]
+    Whitted,
+    /// Unidirectional path tracing with next-event estimation and MIS
+    /// ([`crate::integrator::path`]).
+    Path,
+}
+
+impl IntegratorKind {
+    /// Its name in the scene file, on the command line and in the EXR header.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Whitted => "whitted",
+            IntegratorKind::Path => "path",
+        }
+    }
+
+    /// The integrator called `name`, or the one-line reason it is not one.
+    pub fn parse(name: &str) -> Result<IntegratorKind, String> {
+        match name {
+            "whitted" => Ok(IntegratorKind::Whitted),
+            "path" => Ok(IntegratorKind::Path),
+            _ => Err(format!("integrator {name:?} is not one of \"path\", \"whitted\"")),
+        }
+    }
+}
+
+/// How a scene is rendered beyond the image settings (`[render]`): the integrator and the path
+/// tracer's clamp.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderSpec {
+    pub integrator: IntegratorKind,
+    /// The path tracer's clamp of indirect light: a sample's contribution through two or more
+    /// bounces is scaled down so that its largest channel is at most this (`None`: no clamp).
+    pub clamp: Option<f32>,
+}
+
+impl RenderSpec {
+    /// Why these settings cannot be rendered, if they cannot.
+    pub fn problem(&self) -> Option<String> {
+        self.clamp.filter(|c| !(c.is_finite() && *c > 0.0)).map(|c| format!("clamp {c} must be finite and > 0"))
+    }
+}
+
 /// The largest `image.max_depth` accepted. Reflection and refraction recurse once per
 /// bounce; this bounds the stack a worker thread needs (well inside rayon's default), and
 /// no image changes visibly beyond it (even between perfect mirrors the `max_depth`-th image
@@ -156,6 +204,8 @@ pub struct Scene {
     pub prototypes: Vec<Mesh>,
     /// Placements of the prototypes (see [`instance`]).
     pub instances: Vec<Instance>,
+    /// The integrator and its settings (the `[render]` table).
+    pub render: RenderSpec,
 }
 
 /// The object names of a scene's primitives, filled by the scene loader: `meshes[i]` names

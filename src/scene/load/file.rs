@@ -28,7 +28,7 @@ use crate::material::{Material, Texture};
 use crate::math::Vec3;
 use crate::output::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
 use crate::scene::Lens;
-use crate::scene::{CameraSpec, ImageSpec, Scene};
+use crate::scene::{CameraSpec, ImageSpec, IntegratorKind, RenderSpec, Scene};
 use crate::sys::read::{MAX_SCENE_BYTES, ReadError, read_regular};
 
 /// Most spheres a scene may have, all `random_spheres` objects and `sphere`s together (a typo
@@ -251,6 +251,32 @@ struct SceneFile {
     #[serde(default)]
     objects: Vec<Spanned<ObjectFile>>,
     output: Option<Spanned<OutputFile>>,
+    render: Option<Spanned<RenderFile>>,
+}
+
+/// `[render]`: the integrator (`"whitted"`, the default, or `"path"`) and the path tracer's
+/// `clamp` of indirect light.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderFile {
+    integrator: Option<Spanned<String>>,
+    clamp: Option<Spanned<f64>>,
+}
+
+impl RenderFile {
+    fn to_spec(&self) -> Result<RenderSpec, Problem> {
+        let mut spec = RenderSpec::default();
+        if let Some(i) = &self.integrator {
+            spec.integrator = IntegratorKind::parse(i.get_ref()).map_err(|m| at(i.span(), format!("render: {m}")))?;
+        }
+        if let Some(c) = &self.clamp {
+            spec.clamp = Some(*c.get_ref() as f32);
+            if let Some(m) = spec.problem() {
+                return Err(at(c.span(), format!("render: {m}")));
+            }
+        }
+        Ok(spec)
+    }
 }
 
 /// `[output]`: passes, alpha, Cryptomatte levels (see [`crate::output::passes`]).
@@ -479,7 +505,8 @@ impl SceneFile {
             None => ImageSpec::default(),
         };
         let output = self.output.as_ref().map_or(Ok(OutputSpec::default()), |o| o.get_ref().to_spec())?;
-        let mut scene = Scene { camera, image, output, ..Default::default() };
+        let render = self.render.as_ref().map_or(Ok(RenderSpec::default()), |r| r.get_ref().to_spec())?;
+        let mut scene = Scene { camera, image, output, render, ..Default::default() };
         let mut material_ids = BTreeMap::new();
         for (i, (name, m)) in self.materials.iter().enumerate() {
             let material = m.get_ref().to_material(name).map_err(|p| prefix(p, &format!("material '{name}'")))?;

@@ -1,0 +1,211 @@
+//! The path tracer's sampler: an Owen-scrambled Sobol sequence per pixel (Burley, "Practical
+//! Hash-based Owen Scrambling", JCGT 2020, through the `sobol_burley` crate).
+//!
+//! ```text
+//! value(pixel, sample, d) = sobol_burley::sample(sample, d mod 2, seed(pixel, d div 2))
+//! seed(pixel, k)          = splitmix64(splitmix64(y·W + x) + k)   (the low 32 bits)
+//! ```
+//!
+//! Every value is a function of the pixel's index `y·W + x`, the pixel's sample number and the
+//! dimension alone, so tiles, `--resume`, `merge` and `--threads` give the same bytes. The
+//! dimensions are padded in pairs (Burley's §4 padding, with sets of two): each pair of
+//! dimensions `2j, 2j + 1` is Sobol's first two dimensions, Owen-scrambled and with its index
+//! shuffled by its own seed, stratified within itself and independent of the other pairs. So
+//! the crate's 256-dimension table is never the limit: a dimension's high bits (`d div 2`) are
+//! folded into the seed. Pairs, not the crate's sets of four: Sobol's dimensions (0, 1) are a
+//! (0, 2)-sequence, (2, 3) are not (64 points miss cells of the 4 × 16 grid), so a 2-D draw
+//! ([`Sobol::next_2d`]) always takes a whole pair, and the pairs a path tracer uses (pixel
+//! position, lens, light point, BSDF direction) put the first 2^k samples of a pixel one in
+//! each of the 2^k elementary intervals of every shape.
+//!
+//! The index shuffle of `sobol_burley` is a nested uniform scramble of the bit-reversed index,
+//! which maps every aligned block of 2^k indices onto an aligned block: any power-of-two
+//! prefix of a pixel's samples is a whole net, so 64 samples are as well stratified as 64
+//! could be, and 65 are 64 plus one.
+//!
+//! The sequence has 2^16 = 65,536 points: a render asking for more samples per pixel is refused
+//! ([`check_spp`]).
+//!
+//! **Dimension bookkeeping** ([`Sobol::start_sample`], [`Sobol::start_bounce`]): dimensions 0–1
+//! are the pixel position, 2–3 the lens, and bounce `b` (0 at the camera ray's hit) owns the
+//! [`DIMS_PER_BOUNCE`] dimensions from `4 + b·DIMS_PER_BOUNCE`, so dimension `d` always means the
+//! same thing whatever happened earlier on the path.
+
+use crate::math::Vec2;
+
+/// Samples per pixel the sequence holds (`sobol_burley`'s limit).
+pub const MAX_SAMPLES: u32 = 1 << 16;
+
+/// Dimensions of the camera sample: the pixel position (0, 1) and the lens point (2, 3).
+pub const CAMERA_DIMS: u32 = 4;
+
+/// Dimensions each bounce owns: the light point (2), the light choice, Russian roulette, the
+/// BSDF direction (2), the BSDF lobe, one spare.
+pub const DIMS_PER_BOUNCE: u32 = 8;
+
+/// Why `spp` samples per pixel cannot be drawn from the sequence, if they cannot.
+pub fn check_spp(spp: u32) -> Result<(), String> {
+    if spp > MAX_SAMPLES {
+        Err(format!(
+            "spp {spp} is more than the {MAX_SAMPLES} samples per pixel the path tracer's Sobol sequence holds"
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// SplitMix64's finaliser (Steele et al.): a bijective 64-bit mix.
+#[inline]
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// One pixel's sampler (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Sobol {
+    /// The pixel's hash.
+    pixel: u64,
+    /// The pixel's sample number (the sequence index).
+    sample: u32,
+    /// The next dimension to draw.
+    dim: u32,
+}
+
+impl Sobol {
+    /// The sampler of the pixel with index `pixel_index` (`y·W + x`).
+    pub fn new(pixel_index: u64) -> Self {
+        Sobol { pixel: splitmix64(pixel_index), sample: 0, dim: 0 }
+    }
+
+    /// Starts the pixel's sample `sample` (< [`MAX_SAMPLES`]) at dimension 0.
+    pub fn start_sample(&mut self, sample: u32) {
+        debug_assert!(sample < MAX_SAMPLES);
+        self.sample = sample;
+        self.dim = 0;
+    }
+
+    /// Moves to the first dimension of bounce `bounce`.
+    pub fn start_bounce(&mut self, bounce: u32) {
+        self.dim = CAMERA_DIMS.saturating_add(bounce.saturating_mul(DIMS_PER_BOUNCE));
+    }
+
+    /// Moves to dimension `dim`.
+    pub fn set_dimension(&mut self, dim: u32) {
+        self.dim = dim;
+    }
+
+    /// The value of dimension `d` at the current sample, in `[0, 1)`.
+    #[inline]
+    pub fn value(&self, d: u32) -> f32 {
+        let seed = splitmix64(self.pixel.wrapping_add(d as u64 / 2)) as u32;
+        sobol_burley::sample(self.sample & (MAX_SAMPLES - 1), d % 2, seed)
+    }
+
+    /// The next dimension.
+    #[inline]
+    pub fn next_1d(&mut self) -> f32 {
+        let v = self.value(self.dim);
+        self.dim = self.dim.wrapping_add(1);
+        v
+    }
+
+    /// The next two dimensions, one whole pair `2j, 2j + 1` (an odd dimension is skipped).
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        if self.dim % 2 == 1 {
+            self.dim = self.dim.wrapping_add(1);
+        }
+        let v = Vec2::new(self.value(self.dim), self.value(self.dim.wrapping_add(1)));
+        self.dim = self.dim.wrapping_add(2);
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_power_of_two_samples_are_stratified_in_every_pair_a_bounce_uses() {
+        // For 2^k samples of a pixel, every 2-D draw puts exactly one point in each cell of a
+        // 2^a × 2^(k−a) grid (the (0, m, 2)-net property), for every a, and every 1-D draw one
+        // point in each of 2^k intervals; for several pixels and for bounces past the
+        // crate's 256 dimensions.
+        for pixel in [0u64, 1, 12345, u64::MAX] {
+            for k in [4u32, 6, 8] {
+                let n = 1u32 << k;
+                for bounce in [0u32, 3, 40] {
+                    let mut pts = Vec::new();
+                    let mut ones = Vec::new();
+                    let mut lens = Vec::new();
+                    for s in 0..n {
+                        let mut sob = Sobol::new(pixel);
+                        sob.start_sample(s);
+                        sob.start_bounce(bounce);
+                        ones.push(sob.next_1d());
+                        sob.set_dimension(CAMERA_DIMS + bounce * DIMS_PER_BOUNCE + 4);
+                        pts.push(sob.next_2d());
+                        sob.set_dimension(2);
+                        lens.push(sob.next_2d());
+                    }
+                    let intervals: std::collections::BTreeSet<u32> =
+                        ones.iter().map(|&v| (v * n as f32) as u32).collect();
+                    assert_eq!(intervals.len(), n as usize, "pixel {pixel} 2^{k} bounce {bounce}");
+                    for a in 0..=k {
+                        let (nx, ny) = (1u32 << a, 1u32 << (k - a));
+                        for (what, pts) in [("bounce", &pts), ("lens", &lens)] {
+                            let cells: std::collections::BTreeSet<(u32, u32)> =
+                                pts.iter().map(|p| ((p.x * nx as f32) as u32, (p.y * ny as f32) as u32)).collect();
+                            assert_eq!(
+                                cells.len(),
+                                n as usize,
+                                "{what}: pixel {pixel} 2^{k} {nx}×{ny} bounce {bounce}"
+                            );
+                        }
+                    }
+                    assert!(pts.iter().all(|p| (0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y)));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn values_depend_on_pixel_sample_and_dimension_only() {
+        // Visiting pixels and samples in any order gives the same values.
+        let draw = |pixel: u64, sample: u32| {
+            let mut s = Sobol::new(pixel);
+            s.start_sample(sample);
+            (0..40).map(|_| s.next_1d()).collect::<Vec<_>>()
+        };
+        let forward: Vec<_> = (0..16u64).flat_map(|p| (0..8).map(move |s| (p, s))).map(|(p, s)| draw(p, s)).collect();
+        let mut shared = Sobol::new(0);
+        let backward: Vec<_> = (0..16u64)
+            .rev()
+            .flat_map(|p| (0..8).rev().map(move |s| (p, s)))
+            .map(|(p, s)| {
+                // One sampler reused across pixels gives the same as a fresh one.
+                shared = Sobol::new(p);
+                shared.start_sample(s);
+                (0..40).map(|_| shared.next_1d()).collect::<Vec<_>>()
+            })
+            .collect();
+        let mut backward = backward;
+        backward.reverse();
+        assert_eq!(forward, backward);
+        // Different pixels and different dimension sets are not the same sequence.
+        assert_ne!(draw(0, 0), draw(1, 0));
+        let s = Sobol::new(7);
+        assert_ne!(s.value(0), s.value(2));
+        assert_ne!(s.value(1000), s.value(1002));
+    }
+
+    #[test]
+    fn more_than_the_sequence_is_refused() {
+        assert!(check_spp(MAX_SAMPLES).is_ok());
+        let e = check_spp(MAX_SAMPLES + 1).unwrap_err();
+        assert!(e.contains("65537") && e.contains("65536") && !e.contains('\n'), "{e}");
+    }
+}
