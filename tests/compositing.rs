@@ -30,7 +30,7 @@ fn render(scene: &Path, out: &Path, w: u32, h: u32, extra: &[&str]) {
 fn have(tool: &str, probe: &[&str]) -> bool {
     let ok = Command::new(tool).args(probe).output().is_ok_and(|o| o.status.success());
     if !ok {
-        eprintln!("\n!!! SKIPPED: `{tool}` is not installed !!!\n");
+        common::skip(&format!("`{tool}` is not installed (make test-deps installs it)"));
     }
     ok
 }
