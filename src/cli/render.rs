@@ -92,7 +92,7 @@ pub struct RenderArgs {
     tile: Option<String>,
     /// Save the finished tiles to OUT.exr.checkpoint every this many seconds; SIGINT and SIGTERM save it too
     /// before exiting. 0 saves after every tile, each save writing all tiles finished so far: a 960×540
-    /// render then takes 3–60× as long, and its ETA, extrapolated linearly, runs short.
+    /// Cornell box took 2× as long at 4 spp, 66× at 1 spp, and its ETA, extrapolated linearly, runs short.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0, allow_negative_numbers = true)]
     checkpoint_every: f64,
     /// Continue from OUT.exr.checkpoint (when it exists): trace only the tiles it lacks. The
