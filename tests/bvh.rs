@@ -2,6 +2,8 @@
 //! scenes of triangles, spheres and planes; a tree that does not depend on the thread count;
 //! analytic hits through the `Accel` interface; bad input refused.
 
+mod common;
+
 use strahl::accel::bvh::{BuildOptions, Bvh, Kernel};
 use strahl::accel::{Accel, Hit};
 use strahl::geometry::triangle::{self, RayFrame};
@@ -140,7 +142,7 @@ fn every_kernel_gives_the_portable_kernels_hits() {
         assert!(hits > 250, "seed {seed}: only {hits} hits");
         for kernel in kernels {
             let Some(bvh) = Bvh::build(&scene).unwrap().with_kernel(kernel) else {
-                eprintln!("skipping the {} kernel: this CPU does not run it", kernel.name());
+                common::skip(&format!("the {} kernel: this CPU does not run it", kernel.name()));
                 continue;
             };
             assert_eq!(bvh.kernel(), kernel);

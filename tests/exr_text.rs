@@ -17,7 +17,7 @@ fn python_readers() -> bool {
     let ok =
         Command::new("python3").args(["-c", "import OpenEXR, mmh3, numpy"]).output().is_ok_and(|o| o.status.success());
     if !ok {
-        eprintln!("\n!!! SKIPPED: Python's OpenEXR, mmh3 and numpy are not installed (make test-deps) !!!\n");
+        common::skip("Python's OpenEXR, mmh3 and numpy are not installed (make test-deps installs them)");
     }
     ok
 }

@@ -120,7 +120,7 @@ fn a_region_is_the_full_renders_pixels_in_its_data_window() {
             assert!(out.contains("dataWindow (type box2i): (5 3) - (26 19)"), "{out}");
             assert!(out.contains("displayWindow (type box2i): (0 0) - (39 29)"), "{out}");
         }
-        _ => eprintln!("exrheader not installed: checked the windows with the exr crate only"),
+        _ => common::skip("exrheader is not installed: checked the windows with the exr crate only"),
     }
 }
 
@@ -214,7 +214,7 @@ impl Farm {
         // The system's interpreter when there is one: a version manager's shim takes ~1 s a call.
         let python = ["/usr/bin/python3", "python3"].into_iter().find(|p| Command::new(p).arg("-V").output().is_ok());
         let Some(python) = python else {
-            eprintln!("\n!!! SKIPPED: python3 (for tests/slurm_stub.py) is not installed !!!\n");
+            common::skip("python3 (for tests/slurm_stub.py) is not installed");
             return None;
         };
         let dir = TempDir::new(tag);

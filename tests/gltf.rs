@@ -240,6 +240,35 @@ fn a_hierarchy_renders_like_the_same_scene_in_toml() {
     assert!(hit > 10_000, "the objects cover the frame ({hit} pixels)");
 }
 
+/// Two cameras, each named apart from its node (as Blender writes them once either is renamed):
+/// `--camera` finds each by its index, its own name and its node's name, and a name that matches
+/// none is refused in one line listing the cameras there are.
+#[test]
+fn a_camera_is_found_by_index_name_or_node_name() {
+    let dir = TempDir::new("gltf-camera-names");
+    let (mut g, _) = hierarchy_scene();
+    g.cameras[0] = g.cameras[0].replacen('{', r#"{"name":"FrontLens","#, 1);
+    g.nodes
+        .iter_mut()
+        .filter(|n| n.contains(r#""camera":0"#))
+        .for_each(|n| *n = n.replacen('{', r#"{"name":"Front","#, 1));
+    g.cameras.push(r#"{"name":"SideLens","type":"perspective","perspective":{"yfov":0.5,"znear":0.1}}"#.into());
+    g.node(r#"{"name":"Side","camera":1,"translation":[6,0,0],"rotation":[0,0.7071068,0,0.7071068]}"#.into(), true);
+    let path = dir.write("cams.gltf", g.json());
+    let front = from_gltf_file(&path, None).unwrap().scene.camera;
+    let side = from_gltf_file(&path, Some("1")).unwrap().scene.camera;
+    assert_ne!(front, side);
+    for (wanted, expected) in
+        [("0", &front), ("FrontLens", &front), ("Front", &front), ("SideLens", &side), ("Side", &side)]
+    {
+        assert_eq!(&from_gltf_file(&path, Some(wanted)).unwrap().scene.camera, expected, "--camera {wanted}");
+    }
+    let out = dir.path("x.exr");
+    let err = fails(&dir, &["render", path.to_str().unwrap(), "--camera", "2", "-o", out.to_str().unwrap()]);
+    assert!(err.contains(r#"no camera matches --camera "2" (by index, name or node name)"#), "{err}");
+    assert!(err.contains(r#"index 0, name "FrontLens", node "Front"; index 1, name "SideLens", node "Side""#), "{err}");
+}
+
 #[test]
 fn glb_and_gltf_with_base64_load_the_same() {
     let dir = TempDir::new("gltf-glb");

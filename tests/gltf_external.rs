@@ -16,7 +16,7 @@ use strahl::scene::{from_gltf_file, from_toml_str};
 /// when Blender is absent.
 fn blender_export(dir: &Path) -> Option<PathBuf> {
     if Command::new("blender").arg("--version").output().is_err() {
-        eprintln!("\n!!! SKIPPED: blender is not installed (apt-get install blender) !!!\n");
+        common::skip("blender is not installed (apt-get install blender)");
         return None;
     }
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_export.py");
@@ -140,7 +140,7 @@ translate = [1.5, 0, -1]
 fn pygltflib_hierarchy_renders_like_the_scene_built_by_hand() {
     let python_ok = Command::new("python3").args(["-c", "import pygltflib"]).output().is_ok_and(|o| o.status.success());
     if !python_ok {
-        eprintln!("\n!!! SKIPPED: python3 with pygltflib is not installed (pip install pygltflib) !!!\n");
+        common::skip("python3 with pygltflib is not installed (make test-deps installs it)");
         return;
     }
     let dir = TempDir::new("pygltflib");

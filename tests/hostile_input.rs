@@ -33,7 +33,7 @@ fn run(dir: &TempDir, args: &[&str]) -> Run {
         c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
         c
     } else {
-        eprintln!("note: /usr/bin/time is missing: peak memory not measured");
+        common::skip("/usr/bin/time is missing: peak memory not measured");
         Command::new(env!("CARGO_BIN_EXE_strahl"))
     };
     let start = Instant::now();

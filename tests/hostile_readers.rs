@@ -33,7 +33,7 @@ fn refused(dir: &TempDir, args: &[&str], env: &[(&str, &str)]) -> Refusal {
         c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
         c
     } else {
-        eprintln!("note: /usr/bin/time is missing: peak memory not measured");
+        common::skip("/usr/bin/time is missing: peak memory not measured");
         Command::new(env!("CARGO_BIN_EXE_strahl"))
     };
     cmd.args(args).envs(env.iter().copied()).stdout(Stdio::null()).stderr(Stdio::piped());

@@ -293,6 +293,17 @@ scale = [1, -0.8, 1]
     assert!(stdout.contains("\ntriangles: 0 outside instances\n"), "{stdout}");
     assert!(stdout.contains(&format!("instances: 2 of 1 prototypes ({t} prototype triangles)\n")), "{stdout}");
     assert!(stdout.contains(&format!("unique triangles: {t}\ninstanced triangles: {}\n", 2 * t)), "{stdout}");
+    // `strahl crosscheck` and `strahl bench` count them as rays see them too (not as 0 triangles).
+    let path = dir.path("a.toml");
+    let path = path.to_str().unwrap();
+    let few = ["--rays", "2000", "--kind", "primary", "--threads", "1"];
+    for command in [vec!["crosscheck", path], vec!["bench", path, "--runs", "1"]] {
+        let out = common::strahl(&[&command[..], &few[..]].concat());
+        let stdout = common::text(&out.stdout);
+        assert!(out.status.success(), "{command:?}: {}", common::text(&out.stderr));
+        let line = format!("{} triangles as rays see them ({t} stored once, 2 instances), 0 spheres, 0 planes", 2 * t);
+        assert!(stdout.contains(&line), "{command:?}: {stdout}");
+    }
     for (backend, x, y) in
         [("embree", render(&a.scene).0, render(&b).0), ("native", render_native(&a.scene), render_native(&b))]
     {

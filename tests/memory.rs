@@ -17,7 +17,7 @@ fn strahl_bin() -> &'static str {
 }
 
 fn skip(why: &str) {
-    eprintln!("\n!!! SKIPPED: {why} !!!\n");
+    common::skip(why);
 }
 
 /// The `default --max-memory: …` line of `strahl info scene` run by `command`.

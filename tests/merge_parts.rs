@@ -22,7 +22,7 @@ fn run_measured(dir: &TempDir, args: &[&str]) -> (Option<i32>, String, Option<u6
         c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
         c
     } else {
-        eprintln!("note: /usr/bin/time is missing: peak memory not measured");
+        common::skip("/usr/bin/time is missing: peak memory not measured");
         Command::new(env!("CARGO_BIN_EXE_strahl"))
     };
     let out = command.args(args).env("SOURCE_DATE_EPOCH", "1700000000").output().expect("strahl runs");

@@ -10,6 +10,8 @@
 //! Skips, saying so, when python3 cannot import mitsuba (`make test-mitsuba` installs it and
 //! runs this test with `STRAHL_REQUIRE_MITSUBA=1`, which turns the skip into a failure).
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -26,7 +28,7 @@ fn compare(scene: &str) {
             std::env::var("STRAHL_REQUIRE_MITSUBA").as_deref() != Ok("1"),
             "STRAHL_REQUIRE_MITSUBA=1 but python3 cannot import mitsuba, numpy and tomllib"
         );
-        eprintln!("\n!!! skipped: mitsuba not installed (make test-mitsuba installs it) !!!\n");
+        common::skip("python3 cannot import mitsuba (make test-deps or make test-mitsuba installs it)");
         return;
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -1,4 +1,4 @@
-//! The scale scene (`scenes/scale/forest.toml`, issue 12): 1,000 placements of the shipped
+//! The scale scene (`scenes/scale/forest.toml`): 1,000 placements of the shipped
 //! 5,120-triangle blob refined to 327,680 triangles (`subdivide = 3`), 327.7 M triangles as
 //! rays see them, stored once; it renders in about the memory of one blob
 //! (`scenes/scale/one.toml`). Peak memory is measured on the child process with
@@ -52,7 +52,7 @@ fn the_shipped_files_are_what_the_generator_writes() {
     let dir = TempDir::new("scale-gen");
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/scale/forest_toml.py");
     let Ok(status) = Command::new("python3").arg(&script).arg(dir.path("")).status() else {
-        eprintln!("skipped: no python3");
+        common::skip("python3 is not installed");
         return;
     };
     assert!(status.success());
@@ -66,7 +66,7 @@ fn the_shipped_files_are_what_the_generator_writes() {
 fn peak_rss(dir: &TempDir, args: &[&str]) -> Option<f64> {
     let time = Path::new("/usr/bin/time");
     if !time.exists() {
-        eprintln!("skipped: /usr/bin/time is missing: peak memory not measured");
+        common::skip("/usr/bin/time is missing: peak memory not measured");
         return None;
     }
     let rss = dir.path("rss.txt");

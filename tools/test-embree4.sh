@@ -9,7 +9,7 @@
 # Exit status: 0 passed, 1 the suite failed (or cannot run here), 3 the root could not be made
 # (no network, mirror down) — 0 instead with STRAHL_EMBREE4_OPTIONAL=1, as CI sets it.
 #
-# Cache (kept between runs, documented in the README):
+# Cache (kept between runs, documented in docs/building.md):
 #   $STRAHL_EMBREE4_CACHE (default /var/cache/strahl): trixie-root/ (the prepared root, reused
 #   while its stamp file says it is complete) and target/ (the Embree-4 build's target dir).
 #   First run: debootstrap + packages, about a minute; later runs reuse both.
@@ -32,7 +32,13 @@ SHARED=$(cd "$REPO/.." && pwd)/shared
 MIRROR=${MIRROR:-http://deb.debian.org/debian}
 # Packages of the root; the stamp names them so that a change rebuilds the root.
 PACKAGES="libembree-dev libclang1-19 libclang-common-19-dev gcc libc6-dev ca-certificates python3"
-STAMP="strahl-root-v1: $PACKAGES"
+# The readers the tests check strahl's files with (exrheader, oiiotool, Python's OpenEXR, mmh3,
+# numpy, pygltflib, trimesh), as `make test-deps` installs them on the host: installed when the
+# root is made, each step allowed to fail (a test whose reader is missing skips, and the summary
+# line below counts and names every skip).
+READERS="openexr openimageio-tools python3-numpy python3-pip"
+PIP_READERS="OpenEXR mmh3 pygltflib trimesh"
+STAMP="strahl-root-v2: $PACKAGES; $READERS; $PIP_READERS"
 
 say() { echo "test-embree4: $*" >&2; }
 
@@ -143,6 +149,11 @@ create_root() {
     apt-get update -qq
     apt-get install -y -qq --no-install-recommends $PACKAGES >/dev/null
   " || { ROOT=$real_root; return 1; }
+  chroot "$ROOT" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin DEBIAN_FRONTEND=noninteractive bash -c "
+    apt-get install -y -qq --no-install-recommends $READERS >/dev/null || echo 'test-embree4: could not install $READERS'
+    python3 -m pip install -q --disable-pip-version-check --break-system-packages $PIP_READERS >/dev/null ||
+      echo 'test-embree4: could not pip-install $PIP_READERS'
+  " >&2
   local partial=$ROOT
   ROOT=$real_root
   unmount_tracked
@@ -182,10 +193,11 @@ say "Embree in the root: libembree-dev $embree"
 start=$SECONDS
 # In the background, waited for: bash runs a trap only after the foreground command ends, but
 # `wait` returns at once on a signal, so Ctrl-C or a kill cleans up now, not after the suite.
+rm -f "$TARGET/skipped-tests.txt"
 set +e
 chroot "$ROOT" /usr/bin/env -i HOME="$HOME" PATH="$HOME/.cargo/bin:/usr/bin:/bin" TERM=dumb \
   RUSTUP_HOME="$HOME/.rustup" CARGO_HOME="$HOME/.cargo" CARGO_TARGET_DIR=/target \
-  STRAHL_TEST_DATA=/shared/data/meshes STRAHL_EXPECT_EMBREE_MAJOR=4 \
+  STRAHL_TEST_DATA=/shared/data/meshes STRAHL_EXPECT_EMBREE_MAJOR=4 STRAHL_SKIP_LOG=/target/skipped-tests.txt \
   bash -c 'cd /src && cargo test --offline --locked 2>&1' > >(tee "$TARGET/last-run.log") &
 wait $!
 status=$?
@@ -193,9 +205,16 @@ wait 2>/dev/null || true  # let tee finish the log
 set -e
 passed=$(grep -Eo '[0-9]+ passed' "$TARGET/last-run.log" | awk '{ s += $1 } END { print s + 0 }')
 failed=$(grep -Eo '[0-9]+ failed' "$TARGET/last-run.log" | awk '{ s += $1 } END { print s + 0 }')
+# Each check a test skipped for want of a tool (tests/common/mod.rs, `skip`), named.
+skipped=0
+if [ -s "$TARGET/skipped-tests.txt" ]; then
+  skipped=$(sort -u "$TARGET/skipped-tests.txt" | wc -l)
+  say "$skipped checks skipped inside the root:"
+  sort -u "$TARGET/skipped-tests.txt" | sed 's/^/  /' >&2
+fi
 if [ "$status" -ne 0 ]; then
-  say "FAILED against Embree $embree (exit $status, $passed passed, $failed failed, $((SECONDS - start)) s)"
+  say "FAILED against Embree $embree (exit $status, $passed passed, $failed failed, $skipped checks skipped, $((SECONDS - start)) s)"
   exit "$status"
 fi
 say "the whole suite passed against Embree $embree in $((SECONDS - start)) s"
-echo "embree4: $passed passed, $failed failed"
+echo "embree4: $passed passed, $failed failed, $skipped checks skipped (listed above)"

@@ -6,7 +6,7 @@
 # submits `strahl farm slurm` for an 8-tile render into a folder whose name holds quotes, a
 # space, '#', '%A' and '$( )', waits by polling squeue/sacct, compares the merged EXR with a
 # single-process render byte for byte, and checks the logs are named as meant and nothing
-# ran; then makes a task fail, and finishes the frame as the README says (task and merge again). Every daemon it started is stopped by PID on every exit path. Needs root (it writes
+# ran; then makes a task fail, and finishes the frame as docs/farm.md says (task and merge again). Every daemon it started is stopped by PID on every exit path. Needs root (it writes
 # /etc/munge and starts daemons).
 #
 # Exit status: 0 passed or skipped (said loudly: not root, or no apt-get to install Slurm), 1 failed.
@@ -165,7 +165,7 @@ pwned=$(find "$WORK" "$ROOT" -name PWNED 2>/dev/null | head -1)
 log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s)"
 
 # 8. After a failed task (tile 3's path is a folder), the merge still runs (afterany) and
-# refuses, naming the tile; the README's two commands then finish the same frame.
+# refuses, naming the tile; the two commands of docs/farm.md then finish the same frame.
 R=$WORK/out/recover
 mkdir -p "$R/frame.exr.farm/tile-3.exr"
 ids=$("$STRAHL" farm slurm "$SCENE" -o "$R/frame.exr" --tiles 4 --cpus 1 --submit -- "${RENDER[@]}" | tail -1) \

@@ -17,7 +17,7 @@ use super::KindArg;
 /// Arguments of `strahl bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// The scene file (TOML), or a mesh file (OBJ, PLY; optionally .gz) on its own.
+    /// The scene file (TOML), a glTF file (.gltf, .glb), or a mesh file (OBJ, PLY; optionally .gz) on its own.
     scene: PathBuf,
     #[command(flatten)]
     confine: super::ConfineArg,

@@ -22,7 +22,7 @@ const EXAMPLES: usize = 5;
 /// Arguments of `strahl crosscheck`.
 #[derive(Args, Debug)]
 pub struct CrosscheckArgs {
-    /// The scene file (TOML), or a mesh file (OBJ, PLY; optionally .gz) on its own.
+    /// The scene file (TOML), a glTF file (.gltf, .glb), or a mesh file (OBJ, PLY; optionally .gz) on its own.
     scene: PathBuf,
     #[command(flatten)]
     confine: super::ConfineArg,
@@ -61,11 +61,8 @@ pub fn run(args: CrosscheckArgs) -> anyhow::Result<()> {
     let native_ms = 1e3 * start.elapsed().as_secs_f64();
 
     println!(
-        "{shown}: {} triangles, {} spheres, {} planes; BVH built in {embree_ms:.1} ms (embree), {native_ms:.1} ms \
-         (native); {threads} thread{}, seed {}",
-        scene.triangle_count(),
-        scene.spheres.len(),
-        scene.planes.len(),
+        "{shown}: {}; BVH built in {embree_ms:.1} ms (embree), {native_ms:.1} ms (native); {threads} thread{}, seed {}",
+        strahl::verify::geometry_line(&scene),
         if threads == 1 { "" } else { "s" },
         args.seed
     );

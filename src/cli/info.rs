@@ -16,7 +16,8 @@ use strahl::scene::{Loaded, ObjectSummary, Scene};
 /// Arguments of `strahl info`.
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// The scene file (TOML; see docs/scene-format.md).
+    /// The scene file (TOML; see docs/scene-format.md), a glTF file (.gltf, .glb), or a mesh file (OBJ, PLY;
+    /// optionally .gz) on its own.
     scene: PathBuf,
     #[command(flatten)]
     confine: super::ConfineArg,

@@ -24,7 +24,7 @@ use strahl::scene::load::MeshFormat;
 pub struct RenderArgs {
     /// The scene file (TOML; see docs/scene-format.md), or a glTF file (.gltf, .glb).
     scene: PathBuf,
-    /// Which camera of a glTF file to render through: its index or name [default: the first].
+    /// Which camera of a glTF file to render through: its index, its name or its node's name [default: the first].
     #[arg(long, value_name = "NAME|INDEX")]
     camera: Option<String>,
     /// Where to write the OpenEXR image (linear RGBA, Z, N, albedo).
@@ -86,8 +86,7 @@ pub struct RenderArgs {
     /// Channel naming of the EXR: Blender's multilayer names, or Nuke's.
     #[arg(long, value_enum, default_value_t = LayoutArg::Blender)]
     exr_layout: LayoutArg,
-    /// Store colour passes as half floats (depth, normals, position, indices and Cryptomatte
-    /// stay float32).
+    /// Store colour passes and normals as half floats (depth, position, indices, Cryptomatte stay float32).
     #[arg(long)]
     half: bool,
     /// EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a.
@@ -101,8 +100,9 @@ pub struct RenderArgs {
     /// splitting a frame over a farm (`strahl merge` joins the tiles).
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
-    /// Save the finished tiles to OUT.exr.checkpoint every this many seconds (0: after every
-    /// tile); SIGINT and SIGTERM save it too before exiting.
+    /// Save the finished tiles to OUT.exr.checkpoint every this many seconds; SIGINT and SIGTERM save it too
+    /// before exiting. 0 saves after every tile, each save writing all tiles finished so far: a 960×540
+    /// Cornell box took 2× as long at 4 spp, 66× at 1 spp, and its ETA, extrapolated linearly, runs short.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0, allow_negative_numbers = true)]
     checkpoint_every: f64,
     /// Continue from OUT.exr.checkpoint (when it exists): trace only the tiles it lacks. The

@@ -138,9 +138,8 @@ pub struct BuildTime {
 /// Everything [`run`] measured.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Report {
-    pub triangles: usize,
-    pub spheres: usize,
-    pub planes: usize,
+    /// The scene's geometry ([`super::geometry_line`]).
+    pub geometry: String,
     pub builds: Vec<BuildTime>,
     /// The shape of the native BVH.
     pub native: Option<bvh::Stats>,
@@ -276,12 +275,7 @@ fn engine_order(run: usize, n: usize) -> impl Iterator<Item = usize> {
 
 /// Measures build times and throughput for `scene` as `config` says.
 pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
-    let mut report = Report {
-        triangles: scene.triangle_count(),
-        spheres: scene.spheres.len(),
-        planes: scene.planes.len(),
-        ..Default::default()
-    };
+    let mut report = Report { geometry: super::geometry_line(scene), ..Default::default() };
     // The rays, once for all: secondary rays from Embree's primary hits.
     let mut ray_sets = Vec::new();
     for &threads in &config.threads {
@@ -394,7 +388,7 @@ impl fmt::Display for Report {
     /// A table: build times, then Mrays/s per engine with one column per kind and thread
     /// count, then native's time relative to Embree's single rays (1.00 = as fast).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(f, "{} triangles, {} spheres, {} planes", self.triangles, self.spheres, self.planes)?;
+        writeln!(f, "{}", self.geometry)?;
         if let Some(s) = &self.native {
             writeln!(
                 f,

@@ -1,4 +1,4 @@
-//! Helpers shared by the tests: an Embree backend for a scene, a render call, the lecture's
+//! What the tests share: an Embree backend for a scene, a render call, the lecture's
 //! pinhole camera and ray–triangle intersection written out again in f64 as independent
 //! references, the shared mesh data folder, temporary folders, running the `strahl` binary and
 //! reading back the EXR it writes.
@@ -97,8 +97,27 @@ pub fn data_dir() -> Option<PathBuf> {
     if std::env::var_os("CI").is_some() {
         panic!("test data folder {} is missing (set STRAHL_TEST_DATA)", dir.display());
     }
-    eprintln!("\n!!! SKIPPED: test data folder {} is missing (set STRAHL_TEST_DATA) !!!\n", dir.display());
+    skip(&format!("test data folder {} is missing (set STRAHL_TEST_DATA)", dir.display()));
     None
+}
+
+/// Says that the running test skips a check, and why: a line `SKIPPED: BINARY::TEST: WHY` on
+/// stderr (which `cargo test` shows only with `--nocapture`), and the same line appended to the
+/// file `$STRAHL_SKIP_LOG` when it is set: `make test` sets it and lists the file's lines at the
+/// end, so that no skip goes unseen.
+pub fn skip(why: &str) {
+    let thread = std::thread::current();
+    let test = thread.name().filter(|n| *n != "main").unwrap_or("(a test)");
+    let line = format!("SKIPPED: {}::{test}: {why}\n", env!("CARGO_CRATE_NAME"));
+    eprint!("{line}");
+    if let Some(log) = std::env::var_os("STRAHL_SKIP_LOG") {
+        use std::io::Write;
+        let file = std::fs::OpenOptions::new().create(true).append(true).open(&log);
+        // One write of one short line: O_APPEND keeps the lines of parallel tests whole.
+        if let Err(e) = file.and_then(|mut f| f.write_all(line.as_bytes())) {
+            eprintln!("cannot append to STRAHL_SKIP_LOG {}: {e}", Path::new(&log).display());
+        }
+    }
 }
 
 /// A fresh directory under the system's temporary directory, removed on drop.

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 HEADER = """# {title}
-# Written by tools/scale/forest_toml.py; render with `make scale` (see README, Scale).
+# Written by tools/scale/forest_toml.py; render with `make scale` (see docs/performance.md, Memory).
 
 [camera]
 eye = [0.0, 9.0, 24.0]

@@ -56,8 +56,10 @@ pub struct MeshNode {
 pub struct GltfCamera {
     /// The glTF camera's index (in the file's `cameras`).
     pub index: usize,
-    /// The camera's name, else its node's name.
+    /// The camera's own name.
     pub name: Option<String>,
+    /// The name of the node that places it (Blender names the two apart once either is renamed).
+    pub node_name: Option<String>,
     pub spec: CameraSpec,
     /// Width over height, when the file gives it.
     pub aspect_ratio: Option<f32>,
@@ -704,8 +706,14 @@ impl Reader<'_> {
             fov_deg: p.yfov().to_degrees(),
             lens: Default::default(),
         };
-        let name = camera.name().or(node.name()).map(str::to_string);
-        self.out.cameras.push(GltfCamera { index: camera.index(), name, spec, aspect_ratio: p.aspect_ratio() });
+        let (name, node_name) = (camera.name().map(str::to_string), node.name().map(str::to_string));
+        self.out.cameras.push(GltfCamera {
+            index: camera.index(),
+            name,
+            node_name,
+            spec,
+            aspect_ratio: p.aspect_ratio(),
+        });
     }
 
     fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: &Transform, what: &str) -> Result<(), String> {

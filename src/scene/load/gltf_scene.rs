@@ -4,7 +4,7 @@
 //! The file is read by [`crate::scene::load::gltf`]; here its meshes are placed in the world by their
 //! nodes (a mesh that several nodes use is stored once, as a prototype with an instance per
 //! node; see [`crate::scene::instance`]), its materials appended to the scene's under the names `FILE/NAME` (as a mesh file's
-//! are), its lights added. A lone glTF file also brings its camera (chosen by name or index,
+//! are), its lights added. A lone glTF file also brings its camera (chosen by index, by its name or its node's name,
 //! the first by default) and image size (640 pixels wide, the height from the camera's
 //! `aspectRatio`, else 480); without a camera it is framed as a lone mesh file is, and without
 //! lights it gets the **default light**, a directional light shining along the view direction
@@ -16,7 +16,7 @@ use std::path::Path;
 use super::file::{Loaded, ObjectSummary, SceneError};
 use crate::light::Light;
 use crate::math::Vec3;
-use crate::scene::load::gltf::{GltfFile, load_gltf};
+use crate::scene::load::gltf::{GltfCamera, GltfFile, load_gltf};
 use crate::scene::transform::Transform;
 use crate::scene::{CameraSpec, ImageSpec, Instance, Mesh, Scene};
 
@@ -116,6 +116,32 @@ pub fn add_gltf(
     (summary, placements)
 }
 
+/// The placed camera `wanted` names: a camera index (in the file's `cameras`), the camera's own
+/// name or the name of its node, in that order; else an error that lists the cameras there are.
+fn find_camera<'a>(cameras: &'a [GltfCamera], wanted: &str) -> Result<&'a GltfCamera, String> {
+    let by_index = |c: &&GltfCamera| wanted.parse::<usize>().is_ok_and(|i| i == c.index);
+    let by_name = |c: &&GltfCamera| c.name.as_deref() == Some(wanted);
+    let by_node = |c: &&GltfCamera| c.node_name.as_deref() == Some(wanted);
+    let found = cameras.iter().find(by_index).or_else(|| cameras.iter().find(by_name));
+    if let Some(camera) = found.or_else(|| cameras.iter().find(by_node)) {
+        return Ok(camera);
+    }
+    if cameras.is_empty() {
+        return Err(format!("--camera {wanted:?}: the file has no perspective camera"));
+    }
+    let describe = |c: &GltfCamera| {
+        let mut words = vec![format!("index {}", c.index)];
+        words.extend(c.name.as_ref().map(|n| format!("name {n:?}")));
+        words.extend(c.node_name.as_ref().map(|n| format!("node {n:?}")));
+        words.join(", ")
+    };
+    let list: Vec<String> = cameras.iter().map(describe).collect();
+    Err(format!(
+        "no camera matches --camera {wanted:?} (by index, name or node name); the cameras are: {}",
+        list.join("; ")
+    ))
+}
+
 /// A scene of the one glTF file at `path`: its meshes, materials and lights (the default light
 /// when it has none), and its camera `camera` (a camera index, or the name of a camera or of
 /// its node; the first when `None`).
@@ -127,23 +153,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
     let (summary, _) = add_gltf(&mut scene, path, &file, &Transform::default(), None, false);
     let chosen = match camera {
         None => file.cameras.first(),
-        Some(wanted) => {
-            let found = file
-                .cameras
-                .iter()
-                .find(|c| wanted.parse::<usize>().is_ok_and(|i| i == c.index) || c.name.as_deref() == Some(wanted));
-            if found.is_none() {
-                let known: Vec<String> = file
-                    .cameras
-                    .iter()
-                    .map(|c| c.name.as_ref().map_or_else(|| c.index.to_string(), |n| format!("{} '{n}'", c.index)))
-                    .collect();
-                let known =
-                    if known.is_empty() { "it has none".into() } else { format!("it has {}", known.join(", ")) };
-                return Err(invalid(format!("no camera {wanted:?} in the scene ({known})")));
-            }
-            found
-        }
+        Some(wanted) => Some(find_camera(&file.cameras, wanted).map_err(invalid)?),
     };
     scene.image = ImageSpec::default();
     match chosen {
