@@ -10,6 +10,7 @@ mod crosscheck;
 mod farm;
 mod info;
 mod merge;
+mod output_args;
 mod progress;
 mod render;
 

@@ -9,12 +9,12 @@
 
 use std::path::PathBuf;
 
+use super::Backend;
+use super::output_args::OutputArgs;
 use super::progress::Progress;
-use super::{Backend, LayoutArg};
 use anyhow::bail;
 use clap::Args;
-use strahl::job::{Observer, Output, RenderJob, Settings};
-use strahl::output::exr::Compression;
+use strahl::job::{Observer, RenderJob, Settings};
 use strahl::output::passes::MAX_CRYPTO_LEVELS;
 use strahl::scene::IntegratorKind;
 use strahl::scene::load::MeshFormat;
@@ -27,12 +27,6 @@ pub struct RenderArgs {
     /// Which camera of a glTF file to render through: its index, its name or its node's name [default: the first].
     #[arg(long, value_name = "NAME|INDEX")]
     camera: Option<String>,
-    /// Where to write the OpenEXR image (linear RGBA, Z, N, albedo).
-    #[arg(short, long, value_name = "OUT.exr")]
-    output: PathBuf,
-    /// Also write an 8-bit sRGB PNG preview here.
-    #[arg(long, value_name = "OUT.png")]
-    png: Option<PathBuf>,
     /// Refuse, before building anything, a render whose estimated memory (as `strahl info`
     /// prints it) exceeds this: bytes or K/M/G/T (e.g. 8G) [default: the smallest of 3/4 of
     /// physical memory, the cgroup's memory limit and RLIMIT_AS less a reserve; `strahl info`
@@ -41,6 +35,8 @@ pub struct RenderArgs {
     max_memory: Option<u64>,
     #[command(flatten)]
     confine: super::ConfineArg,
+    #[command(flatten)]
+    output: OutputArgs,
     /// Image width in pixels (overrides the scene's).
     #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
@@ -56,13 +52,10 @@ pub struct RenderArgs {
     /// Worker threads for rendering, Embree's BVH build and EXR compression [default: one per core].
     #[arg(long, value_name = "T", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=4096))]
     threads: Option<u32>,
-    /// Exposure of the PNG preview in stops: its radiance is multiplied by 2^EV.
-    #[arg(long, value_name = "EV", default_value_t = 0.0, allow_negative_numbers = true)]
-    exposure: f32,
     /// What computes the light: the lecture's ray tracer (`whitted`), or the path tracer
     /// (`path`: indirect light, next-event estimation with MIS) [default: the scene's
     /// `[render] integrator`, else whitted].
-    #[arg(long, value_name = "NAME", value_parser = parse_integrator)]
+    #[arg(long, value_name = "NAME", value_parser = IntegratorKind::parse)]
     integrator: Option<IntegratorKind>,
     /// The path tracer's clamp: every contribution of light that scattered twice or more is
     /// scaled so its largest channel is at most C (less fireflies, less energy) [default: off].
@@ -83,15 +76,6 @@ pub struct RenderArgs {
     /// Cryptomatte ranks per pixel (overrides the scene's `cryptomatte_levels`).
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=MAX_CRYPTO_LEVELS as i64))]
     cryptomatte_levels: Option<u32>,
-    /// Channel naming of the EXR: Blender's multilayer names, or Nuke's.
-    #[arg(long, value_enum, default_value_t = LayoutArg::Blender)]
-    exr_layout: LayoutArg,
-    /// Store colour passes and normals as half floats (depth, position, indices, Cryptomatte stay float32).
-    #[arg(long)]
-    half: bool,
-    /// EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a.
-    #[arg(long, value_name = "C", default_value = "zip", value_parser = strahl::job::parse_compression)]
-    compression: Compression,
     /// Render only the pixels X0 ≤ x < X1, Y0 ≤ y < Y1 (half-open pixel bounds, (0,0) the
     /// top-left pixel); the EXR's dataWindow is that region inside the whole displayWindow.
     #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
@@ -100,28 +84,10 @@ pub struct RenderArgs {
     /// splitting a frame over a farm (`strahl merge` joins the tiles).
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
-    /// Save the finished tiles to OUT.exr.checkpoint every this many seconds; SIGINT and SIGTERM save it too
-    /// before exiting. 0 saves after every tile, each save writing all tiles finished so far: a 960×540
-    /// Cornell box took 2× as long at 4 spp, 66× at 1 spp, and its ETA, extrapolated linearly, runs short.
-    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, allow_negative_numbers = true)]
-    checkpoint_every: f64,
-    /// Continue from OUT.exr.checkpoint (when it exists): trace only the tiles it lacks. The
-    /// result is the same bytes as an uninterrupted render.
-    #[arg(long)]
-    resume: bool,
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let output = Output {
-        exr: args.output,
-        png: args.png,
-        exposure: args.exposure,
-        layout: args.exr_layout.into(),
-        half: args.half,
-        compression: args.compression,
-        checkpoint_every: args.checkpoint_every,
-        resume: args.resume,
-    };
+    let output = args.output.into_output();
     output.check()?;
     if MeshFormat::of(&args.scene).is_some() {
         bail!(
@@ -158,9 +124,4 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let write_seconds = job.write(&mut rendered, &observer)?;
     print!("{}", job.summary(&rendered, write_seconds));
     Ok(())
-}
-
-/// `--integrator`: `path` or `whitted`.
-fn parse_integrator(name: &str) -> Result<IntegratorKind, String> {
-    IntegratorKind::parse(name)
 }
