@@ -149,14 +149,19 @@ scale: build
 # of fuzz/ runs FUZZ_SECONDS (default 600) with a 10 s hang timeout and a 2 GB memory limit,
 # seeded with the shipped scenes, the test data's OBJ/MTL/PLY files (../shared/data/meshes, or
 # STRAHL_TEST_DATA), a pygltflib-written glTF, the PNGs of docs/ and, for exr_part (merge parts),
-# 8 × 6 tiles rendered by a built strahl in every compression, alone and in pairs. A crash, hang
+# 8 × 6 tiles rendered by a built strahl in every compression, alone and in pairs (checkpoint
+# makes its own valid headers and checksums, see fuzz/fuzz_targets/checkpoint.rs). A crash, hang
 # or OOM leaves its input in fuzz/artifacts/TARGET/ and stops with a non-zero status; make it a
-# regression test.
+# regression test. fuzz/Cargo.lock is committed and must match strahl's dependencies: a stale one
+# stops `make fuzz` before anything is built, instead of being rewritten in the work tree (cargo
+# fuzz has no --locked of its own).
 FUZZ_SECONDS ?= 600
-FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script texture exr_part
+FUZZ_TARGETS ?= scene_toml obj_mtl ply gltf polygon farm_script texture exr_part checkpoint
 FUZZ_DATA := $(or $(STRAHL_TEST_DATA),../shared/data)/meshes
 fuzz:
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
+	@(cd fuzz && $(CARGO) +nightly metadata --locked --format-version 1 >/dev/null) || \
+	  { echo "fuzz: fuzz/Cargo.lock does not match strahl's dependencies: run 'cargo +nightly update --workspace --manifest-path fuzz/Cargo.toml' and commit it" >&2; exit 1; }
 	@mkdir -p $(addprefix fuzz/corpus/,scene_toml obj_mtl ply gltf texture exr_part $(FUZZ_TARGETS))
 	@cp scenes/*.toml fuzz/corpus/scene_toml/
 	@find docs -size -1000k \( -name '*.png' -o -name '*.jpg' \) -exec cp {} fuzz/corpus/texture/ \;

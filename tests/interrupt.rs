@@ -1,6 +1,6 @@
 //! SIGINT and SIGTERM while an output is being written: strahl exits with 128 + signal, the
 //! temporary file is gone and the previous output is untouched (`strahl::sys::signals`). Temporary
-//! names are short (`.strahl-PID-N.tmp`), so a 250-byte output name renders.
+//! names are short (`.strahl-HOST-PID-START-N.tmp`), so a 250-byte output name renders.
 
 mod common;
 
@@ -56,9 +56,8 @@ fn a_failing_png_leaves_the_previous_exr_and_no_temporary() {
     let first = strahl(&[&["render", scene, "-o", exr.to_str().unwrap()][..], &small].concat());
     assert!(first.status.success(), "{}", text(&first.stderr));
     let before = std::fs::read(&exr).unwrap();
-    // A PNG that cannot be created (/proc takes no new files, even from root: this fails after
-    // the render, with the EXR already in its temporary), and one whose place is taken by a
-    // directory (refused before rendering).
+    // A PNG that cannot be created (/proc takes no new files, even from root) and one whose
+    // place is taken by a directory: both refused before rendering.
     std::fs::create_dir(dir.path("taken.png")).unwrap();
     std::fs::write(dir.path("taken.png/x"), "x").unwrap();
     for png in ["/proc/strahl-test.png".to_string(), dir.path("taken.png").display().to_string()] {

@@ -116,6 +116,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         clamp: args.clamp,
     };
     let job = RenderJob::new(&args.scene, loaded.scene, settings)?;
+    if let Some(line) = job.complete(&Observer { progress: &|_| {}, note: &|line| eprintln!("{line}") })? {
+        println!("{line}");
+        return Ok(());
+    }
     let bar = Progress::new(job.region.pixel_count());
     let observer = Observer { progress: &|pixels| bar.inc(pixels), note: &|line| eprintln!("{line}") };
     let rendered = job.render(&observer);

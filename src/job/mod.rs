@@ -1,7 +1,8 @@
 //! A render as one job, as `strahl render` runs it and any other caller (a farm's worker, a
 //! test, a program using strahl as a library) can:
 //!
-//! 1. [`Output::check`]: the outputs can be written (their extensions and directories; the
+//! 1. [`Output::check`]: the outputs can be written (their extensions; no directory in the
+//!    place of the EXR, the PNG or the checkpoint; a file can be made in their folders; the
 //!    PNG is not the EXR; the exposure is a number), before the scene is even loaded.
 //! 2. [`RenderJob::new`]: the loaded scene with the [`Settings`] applied, each checked: no
 //!    output is a file the scene was read from, through any link or spelling; the image
@@ -34,11 +35,11 @@ use crate::accel::bvh::Bvh;
 use crate::accel::embree::{self, BuildOptions, Device, DeviceOptions, EmbreeAccel};
 use crate::integrator::{self, RayCounts, TileJob};
 use crate::output::checkpoint;
-use crate::output::exr::{Compression, ExrOptions, Layout};
+use crate::output::exr::{Attribute, Compression, ExrOptions, Layout};
 use crate::output::exr_stream::BlockStream;
 use crate::output::film::Film;
 use crate::output::ids::ObjectIds;
-use crate::output::metadata::RenderInfo;
+use crate::output::metadata::{RENDER_KEY, RenderInfo};
 use crate::output::passes::PassSet;
 use crate::output::region::Region;
 use crate::scene::{ImageSpec, Scene};
@@ -97,7 +98,36 @@ impl Output {
         if !self.exposure.is_finite() {
             bail!("--exposure {} is not a finite number of stops", self.exposure);
         }
+        let checkpoint = self.checkpoint();
+        if checkpoint.is_dir() {
+            bail!("{}: is a directory, where the render keeps its checkpoint", checkpoint.display());
+        }
+        // A file can be made where the outputs' temporaries go (the checkpoint's is the EXR's
+        // folder): a folder without write permission, or a read-only file system, is found now,
+        // not after rendering.
+        for path in std::iter::once(&self.exr).chain(&self.png) {
+            drop(crate::sys::atomic::Scratch::beside(path)?);
+        }
         Ok(())
+    }
+
+    /// Removes the temporaries that killed runs of this host left in the folders this output
+    /// writes to ([`crate::sys::temporary::remove_stale`]), saying so.
+    fn remove_stale_temporaries(&self, observer: &Observer) {
+        let mut dirs = vec![directory_of(&self.exr)];
+        dirs.extend(self.png.as_deref().map(directory_of).filter(|d| !same_file(d, directory_of(&self.exr))));
+        for dir in dirs {
+            let removed = crate::sys::temporary::remove_stale(dir);
+            if removed.files > 0 {
+                (observer.note)(&format!(
+                    "removed {} temporar{} ({:.1} MB) that killed runs of this host left in {}",
+                    removed.files,
+                    if removed.files == 1 { "y" } else { "ies" },
+                    removed.bytes as f64 / 1e6,
+                    dir.display()
+                ));
+            }
+        }
     }
 
     /// Where the render keeps its checkpoint.
@@ -264,6 +294,50 @@ impl RenderJob {
         Ok(write_start.elapsed().as_secs_f64())
     }
 
+    /// With `--resume`, whether the job's outputs exist and are of this render already (the
+    /// EXR's [`RENDER_KEY`] is this job's and its data window this job's region; the PNG, if
+    /// asked for, exists): then the line to print, and the checkpoint, if a kill left it after
+    /// the outputs were renamed, is removed, as are the stale temporaries
+    /// ([`Output::remove_stale_temporaries`]). A farm's requeued task that had finished ends at
+    /// once. Any other output (another scene or settings, not a strahl EXR, damaged) is
+    /// rendered again and replaced. The PNG's exposure is not compared: `--exposure` alone
+    /// does not render again.
+    pub fn complete(&self, observer: &Observer) -> anyhow::Result<Option<String>> {
+        let Some(output) = self.output.as_ref().filter(|o| o.resume) else { return Ok(None) };
+        if output.png.as_ref().is_some_and(|png| !png.is_file()) {
+            return Ok(None);
+        }
+        let theirs = crate::output::metadata::read_text_attribute(&output.exr, RENDER_KEY);
+        if theirs != Some((self.render_key(output), self.region)) {
+            return Ok(None);
+        }
+        let checkpoint = output.checkpoint();
+        if checkpoint.is_file() {
+            std::fs::remove_file(&checkpoint)
+                .with_context(|| format!("{}: cannot remove the finished render's checkpoint", checkpoint.display()))?;
+        }
+        output.remove_stale_temporaries(observer);
+        Ok(Some(format!(
+            "{}: complete, a render of this scene with these settings; nothing to do (render without --resume \
+             to render it again)",
+            output.exr.display()
+        )))
+    }
+
+    /// The [`RENDER_KEY`] of this job's EXR (see there).
+    fn render_key(&self, output: &Output) -> String {
+        format!(
+            "strahl {} scene {} tile {} backend {} exr {:?} {} {}",
+            env!("CARGO_PKG_VERSION"),
+            crate::scene::hash::scene_hash_hex(&self.scene),
+            crate::output::region::TILE_SIZE,
+            self.backend.name(),
+            output.layout,
+            output.compression.name(),
+            if output.half { "half" } else { "float" },
+        )
+    }
+
     /// What the job did, for the summary a command prints ([`Summary`]'s lines).
     pub fn summary<'a>(&'a self, rendered: &'a Rendered, write_seconds: f64) -> Summary<'a> {
         Summary { job: self, rendered, write_seconds }
@@ -278,11 +352,13 @@ impl RenderJob {
             backend: self.backend.name().to_string(),
             render_seconds: 0.0,
         };
+        let mut attributes = crate::output::metadata::attributes(&self.scene, &info);
+        attributes.push((RENDER_KEY.to_string(), Attribute::Text(self.render_key(output))));
         ExrOptions {
             layout: output.layout,
             half: output.half,
             compression: output.compression,
-            attributes: crate::output::metadata::attributes(&self.scene, &info),
+            attributes,
             object_names: ObjectIds::new(&self.scene).object_names,
             material_names: self.scene.materials.iter().map(|m| m.name.clone()).collect(),
         }
@@ -309,6 +385,7 @@ impl RenderJob {
             let render_seconds = render_start.elapsed().as_secs_f64();
             return Ok(Rendered { film, rays, build_seconds, render_seconds, compress_seconds: 0.0, blocks: None });
         };
+        output.remove_stale_temporaries(observer);
         let checkpointing = Checkpointing {
             path: output.checkpoint(),
             every: checkpoint_interval(output.checkpoint_every)?,
@@ -335,7 +412,8 @@ impl RenderJob {
         let (scene, ckpt) = (&self.scene, out.checkpointing);
         let tiles = self.region.tiles();
         let shown = ckpt.path.display();
-        let done = ckpt.restore(&tiles, &mut film, observer)?;
+        let fresh = || Film::for_region(scene.image.width, scene.image.height, self.region, &scene.output);
+        let done = ckpt.restore(&tiles, &mut film, fresh, observer)?;
         // A mask, not `done.contains`: a 16384² frame has a million tiles.
         let mut is_done = vec![false; tiles.len()];
         for &k in &done {
@@ -628,8 +706,16 @@ struct Checkpointing {
 impl Checkpointing {
     /// The tiles (indices into `tiles`) the checkpoint holds, copied into `film`, when there is
     /// one and the render resumes; none otherwise (a checkpoint that is not resumed is
-    /// replaced, with a warning).
-    fn restore(&self, tiles: &[Region], film: &mut Film, observer: &Observer) -> anyhow::Result<Vec<usize>> {
+    /// replaced, with a warning). A damaged checkpoint, or one of another render, is moved
+    /// aside with a warning ([`checkpoint::aside`]) and `film` made `fresh` again (the reading
+    /// may have filled part of it).
+    fn restore(
+        &self,
+        tiles: &[Region],
+        film: &mut Film,
+        fresh: impl Fn() -> Film,
+        observer: &Observer,
+    ) -> anyhow::Result<Vec<usize>> {
         let shown = self.path.display();
         if !self.path.exists() {
             return Ok(Vec::new());
@@ -640,9 +726,21 @@ impl Checkpointing {
             ));
             return Ok(Vec::new());
         }
-        let done = checkpoint::read_into(&self.path, &self.key, tiles, film)?;
-        (observer.note)(&format!("resuming from {shown}: {} of {} tiles done", done.len(), tiles.len()));
-        Ok(done)
+        match checkpoint::read_into(&self.path, &self.key, tiles, film) {
+            Ok(done) => {
+                (observer.note)(&format!("resuming from {shown}: {} of {} tiles done", done.len(), tiles.len()));
+                Ok(done)
+            }
+            Err(e) if e.kind == checkpoint::Problem::Unreadable => Err(e.into()),
+            Err(e) => {
+                let aside = checkpoint::aside(&self.path, e.kind);
+                std::fs::rename(&self.path, &aside)
+                    .with_context(|| format!("{e}; cannot move it aside to {}", aside.display()))?;
+                (observer.note)(&format!("warning: {e}; moved it to {}, rendering from the start", aside.display()));
+                *film = fresh();
+                Ok(Vec::new())
+            }
+        }
     }
 }
 

@@ -12,8 +12,12 @@
 //!
 //! **Identity.** A checkpoint carries a key: strahl's version, the scene/settings hash
 //! ([`crate::scene::hash`]), the region, the tile size and the backend. A checkpoint with
-//! another key (another scene, other settings, an edited scene file: stale) is refused, as is a
-//! damaged one (its FNV-1a checksum, the layout of its floats).
+//! another key (another scene, other settings, an edited scene file, another strahl:
+//! [`Problem::Other`]) cannot be resumed, nor can a damaged one (not a checkpoint, another
+//! format version, its FNV-1a checksum, the layout of its floats: [`Problem::Damaged`]). Neither
+//! may stop a farm's retries until a person comes: the render moves it aside ([`aside`]) and
+//! starts from nothing, saying so in one line. A checkpoint that cannot be read at all (no
+//! permission, an I/O error: [`Problem::Unreadable`]) stops the render, as it may be fine.
 //!
 //! **Format** (little-endian), hand-written because it holds raw film floats that only strahl
 //! reads back and that must round-trip exactly, of a partial frame:
@@ -44,7 +48,30 @@ const VERSION: u32 = 1;
 #[error("{}: {problem}", path.display())]
 pub struct CheckpointError {
     pub path: PathBuf,
+    pub kind: Problem,
     pub problem: String,
+}
+
+/// What is wrong with a checkpoint (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Problem {
+    /// It could not be read (it may be whole).
+    Unreadable,
+    /// Not a checkpoint, another format version, or its bytes are wrong.
+    Damaged,
+    /// A whole checkpoint of another render.
+    Other,
+}
+
+/// Where a checkpoint with `problem` (not [`Problem::Unreadable`]) is moved aside:
+/// `OUT.exr.checkpoint.damaged`, or `OUT.exr.checkpoint.other` for one of another render (kept,
+/// so that going back to its settings can resume it by renaming it back). One of each at most:
+/// the next replaces it, so that a task retried again and again does not fill the disk (a
+/// checkpoint of a 16384² frame is 12 GB).
+pub fn aside(checkpoint: &Path, problem: Problem) -> PathBuf {
+    let mut name = checkpoint.as_os_str().to_owned();
+    name.push(if problem == Problem::Other { ".other" } else { ".damaged" });
+    PathBuf::from(name)
 }
 
 /// The checkpoint of the render writing `output`: `output` with `.checkpoint` appended.
@@ -139,24 +166,40 @@ impl<W: Write> Write for Hashing<'_, W> {
 /// Reads the checkpoint at `path` of a render with `key` over `tiles` into `film` (an empty
 /// film of the render's region and passes) and returns the finished tiles' indices. The file
 /// is read as it goes, never whole in memory; its checksum is compared at the end, so a
-/// damaged file may have filled part of `film` when it is refused (the render stops then).
+/// damaged file may have filled part of `film` when it is refused.
 pub fn read_into(path: &Path, key: &str, tiles: &[Region], film: &mut Film) -> Result<Vec<usize>, CheckpointError> {
-    let err = |problem: String| CheckpointError { path: path.to_path_buf(), problem };
-    let damaged = |what: &str| err(format!("a damaged checkpoint ({what}); delete it to render from the start"));
     // Only a regular file (opening a FIFO would wait for a writer); any size, as it is streamed.
-    let (file, length) =
-        open_regular(path, u64::MAX, "").map_err(|e| err(format!("cannot read the checkpoint: {e}")))?;
-    let mut r = Reader { inner: io::BufReader::with_capacity(1 << 20, file), hash: Fnv1a::default(), at: 0 };
+    let (file, length) = open_regular(path, u64::MAX, "").map_err(|e| CheckpointError {
+        path: path.to_path_buf(),
+        kind: Problem::Unreadable,
+        problem: format!("cannot read the checkpoint: {e}"),
+    })?;
+    read_from(io::BufReader::with_capacity(1 << 20, file), length, path, key, tiles, film)
+}
+
+/// [`read_into`] from the `length` bytes of `source`, named `path` in errors (the fuzz
+/// target `checkpoint` reads from memory).
+pub fn read_from(
+    source: impl Read,
+    length: u64,
+    path: &Path,
+    key: &str,
+    tiles: &[Region],
+    film: &mut Film,
+) -> Result<Vec<usize>, CheckpointError> {
+    let err = |kind: Problem, problem: String| CheckpointError { path: path.to_path_buf(), kind, problem };
+    let damaged = |what: &str| err(Problem::Damaged, format!("a damaged checkpoint ({what})"));
+    let mut r = Reader { inner: source, hash: Fnv1a::default(), at: 0 };
     let mut magic = [0u8; 8];
     if length < MAGIC.len() as u64 + 8 || r.fill(&mut magic).is_none() || &magic != MAGIC {
-        return Err(err("is not a strahl checkpoint".into()));
+        return Err(err(Problem::Damaged, "is not a strahl checkpoint".into()));
     }
     // Everything but the trailing checksum.
     let body = length - 8;
     let early = || damaged("it ends early");
     let version = r.u32(body).ok_or_else(early)?;
     if version != VERSION {
-        return Err(err(format!("checkpoint format {version}, this strahl reads {VERSION}")));
+        return Err(err(Problem::Damaged, format!("checkpoint format {version}, this strahl reads {VERSION}")));
     }
     let key_len = r.u32(body).ok_or_else(early)? as usize;
     if key_len as u64 > body - r.at {
@@ -166,9 +209,7 @@ pub fn read_into(path: &Path, key: &str, tiles: &[Region], film: &mut Film) -> R
     r.fill(&mut theirs).ok_or_else(early)?;
     let theirs = String::from_utf8_lossy(&theirs);
     if theirs != key {
-        return Err(err(format!(
-            "a checkpoint of another render ({theirs}), not of this one ({key}); delete it or render without --resume"
-        )));
+        return Err(err(Problem::Other, format!("a checkpoint of another render ({theirs}), not of this one ({key})")));
     }
     let mut next = || r.u32(body).map(|v| v as usize).ok_or_else(early);
     let (tile_count, floats, count) = (next()?, next()?, next()?);
@@ -245,5 +286,72 @@ impl<R: Read> Reader<R> {
         let mut v = [0u8; 4];
         self.fill(&mut v)?;
         Some(u32::from_le_bytes(v))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::passes::{OutputSpec, PassSet};
+
+    /// A 20 × 20 region's film (4 tiles, 3 partial) with every pass, filled with distinct
+    /// values, its tiles, and the checkpoint of tiles 1, 2 and 3 of it.
+    fn saved() -> (Vec<Region>, Film, Vec<u8>) {
+        let region = Region::parse("8,4,28,24").unwrap();
+        let output = OutputSpec { passes: PassSet::all(), transparent: false, crypto_levels: 2 };
+        let mut film = Film::for_region(64, 32, region, &output);
+        for (data, _) in film.buffers_mut() {
+            for (i, v) in data.iter_mut().enumerate() {
+                *v = i as f32 * 0.25 - 3.0;
+            }
+        }
+        let tiles = region.tiles();
+        let mut bytes = Vec::new();
+        write_to(&Mutex::new(film.clone()), &tiles, &[1, 2, 3], "k", &mut bytes).unwrap();
+        (tiles, film, bytes)
+    }
+
+    fn read(bytes: &[u8], tiles: &[Region], film: &mut Film) -> Result<Vec<usize>, CheckpointError> {
+        read_from(bytes, bytes.len() as u64, Path::new("c"), "k", tiles, film)
+    }
+
+    #[test]
+    fn a_checkpoint_reads_back_bit_for_bit() {
+        let (tiles, film, bytes) = saved();
+        let output = OutputSpec { passes: PassSet::all(), transparent: false, crypto_levels: 2 };
+        let mut back = Film::for_region(64, 32, film.region(), &output);
+        assert_eq!(read(&bytes, &tiles, &mut back).unwrap(), [1, 2, 3]);
+        for ((a, n), (b, _)) in film.buffers().iter().zip(back.buffers()) {
+            for &k in &[1usize, 2, 3] {
+                let t = tiles[k];
+                for y in t.y0..t.y1 {
+                    let s = film.index(t.x0, y) * n;
+                    let e = s + t.width() as usize * n;
+                    assert!(a[s..e].iter().zip(&b[s..e]).all(|(x, y)| x.to_bits() == y.to_bits()));
+                }
+            }
+        }
+    }
+
+    /// Every cut and every single changed byte of a checkpoint is refused as damaged (or, in
+    /// the key or its length, as another render's), never a panic.
+    #[test]
+    fn every_cut_and_every_changed_byte_is_refused() {
+        let (tiles, film, bytes) = saved();
+        let mut scratch = film.clone();
+        for cut in 0..bytes.len() {
+            let e = read(&bytes[..cut], &tiles, &mut scratch).unwrap_err();
+            assert_eq!(e.kind, Problem::Damaged, "cut at {cut}: {e}");
+        }
+        let key_at = 12..17;
+        for at in (0..bytes.len()).step_by(7).chain(bytes.len() - 8..bytes.len()) {
+            for flip in [0x01u8, 0x80, 0xff] {
+                let mut bad = bytes.clone();
+                bad[at] ^= flip;
+                let e = read(&bad, &tiles, &mut scratch).unwrap_err();
+                let other = e.kind == Problem::Other && key_at.contains(&at);
+                assert!(e.kind == Problem::Damaged || other, "byte {at} ^ {flip:#x}: {e}");
+            }
+        }
     }
 }

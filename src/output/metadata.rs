@@ -15,6 +15,7 @@
 //! | `strahl/scene` | string | the scene file's name, without its folder ([`scene_entry`]) |
 //! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
 //! | `strahl/transparent` | int | 1 for a transparent render (alpha = coverage), else 0 |
+//! | `strahl/renderKey` | string | what the file is the render of ([`RENDER_KEY`]) |
 //! | `worldToCamera` | m44f | world → camera space (below) |
 //! | `worldToNDC` | m44f | world → normalised device coordinates (below) |
 //!
@@ -36,6 +37,8 @@
 //! reproducible-builds convention: seconds since 1970) is set, the date is that time and the
 //! render times are left out, so the same scene gives the same bytes on every run.
 
+use std::io::{BufReader, Read};
+use std::path::Path;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use glam::DVec3;
@@ -43,6 +46,35 @@ use glam::DVec3;
 use super::exr::Attribute;
 use crate::camera::Camera;
 use crate::scene::Scene;
+
+/// The attribute naming what the file is a render of: strahl's version, the scene/settings
+/// hash, the tile size, the backend and how the EXR is written (layout, compression, sample
+/// type); not the region, which the data window says, so that the parts of one frame carry the
+/// same key and their merge is the bytes of the whole frame rendered at once. A render with
+/// `--resume` whose EXR carries its own key and data window has nothing to do
+/// ([`crate::job::RenderJob::complete`]).
+pub const RENDER_KEY: &str = "strahl/renderKey";
+
+/// The text attribute `name` of the first header of the EXR at `path` and that header's data
+/// window (in the display window's coordinates), when the file is a regular file whose headers
+/// read within 64 MB; `None` otherwise (not an EXR, damaged, no such attribute).
+pub fn read_text_attribute(path: &Path, name: &str) -> Option<(String, crate::output::region::Region)> {
+    let (file, _) = crate::sys::read::open_regular(path, u64::MAX, "").ok()?;
+    let reader = BufReader::new(file.take(64 << 20));
+    let meta = exr::meta::MetaData::read_from_buffered(reader, false).ok()?;
+    let header = meta.headers.first()?;
+    let exr::meta::attribute::AttributeValue::Text(t) =
+        header.own_attributes.other.get(&exr::prelude::Text::from(name))?
+    else {
+        return None;
+    };
+    let (origin, display) = (header.own_attributes.layer_position, header.shared_attributes.display_window.position);
+    let x0 = u32::try_from(origin.0 as i64 - display.0 as i64).ok()?;
+    let y0 = u32::try_from(origin.1 as i64 - display.1 as i64).ok()?;
+    let (w, h) = (u32::try_from(header.layer_size.0).ok()?, u32::try_from(header.layer_size.1).ok()?);
+    let region = crate::output::region::Region { x0, y0, x1: x0.checked_add(w)?, y1: y0.checked_add(h)? };
+    Some((String::from_utf8_lossy(t.as_slice()).into_owned(), region))
+}
 
 /// What the header records about one render beyond the scene itself.
 #[derive(Clone, Debug, Default)]

@@ -9,16 +9,17 @@
 //! destinations of the files renamed after it (the old PNG) are removed, so that a process
 //! killed between the renames (SIGKILL, power loss) leaves the new EXR without a preview, never
 //! beside the previous render's PNG: an old file beside a new one would silently mislead.
-//! Such a kill also leaves the unrenamed temporary (`.strahl-PID-N.tmp`) behind; other
-//! processes ignore it and it is safe to delete (stale temporaries are not removed
-//! automatically, because on a shared farm folder another node's live temporary looks the same).
+//! Such a kill also leaves the unrenamed temporary behind; a later run removes it
+//! ([`crate::sys::temporary::remove_stale`]) once its writer is known to be gone.
 //! A rename failing in between (both temporaries already written in full, in the destinations'
 //! own folders; a directory in a destination's place is refused before) leaves the new first
 //! file and no second one, for the same reason. `STRAHL_TEST_COMMIT_DELAY_MS` (for tests)
 //! waits that long after the first rename.
 //!
-//! The temporary name is short, `.strahl-PID-N.tmp`, so that any legal output name works (a
-//! name derived from the output's would exceed the 255-byte limit for long ones). While it
+//! The temporary's name, `.strahl-HOST-PID-START-N.tmp` ([`crate::sys::temporary`]), is short,
+//! so that any legal output name works (a name derived from the output's would exceed the
+//! 255-byte limit for long ones), and names its writer, so that a stale one can be told from a
+//! live one. While it
 //! exists it is registered with [`crate::sys::signals`], which removes it if SIGINT or SIGTERM ends
 //! the process. `STRAHL_TEST_WRITE_DELAY_MS` (for tests) waits that long after creating it.
 
@@ -123,7 +124,7 @@ fn create_temporary(path: &Path) -> Result<(fs::File, PathBuf), WriteError> {
     // A name unique to this process and call; `create_new` refuses to reuse a leftover.
     loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let tmp = dir.join(format!(".strahl-{}-{n}.tmp", std::process::id()));
+        let tmp = dir.join(crate::sys::temporary::name(n));
         match OpenOptions::new().read(true).write(true).create_new(true).open(&tmp) {
             Ok(file) => {
                 crate::sys::signals::track(&tmp);

@@ -7,5 +7,6 @@ pub mod memory;
 pub mod read;
 pub mod same_file;
 pub mod signals;
+pub mod temporary;
 
 pub use atomic::{WriteError, write_atomically};

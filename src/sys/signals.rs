@@ -12,9 +12,9 @@
 //! [`stop_requested`] (the tiles under way finish, the checkpoint is saved, strahl ends with a
 //! message), and a second signal exits at once as above.
 //!
-//! SIGKILL and power loss cannot be caught: a `.strahl-PID-N.tmp` file left beside an output
-//! can only come from those, and is safe to delete (the output it was meant to replace is
-//! untouched).
+//! SIGKILL and power loss cannot be caught: a `.strahl-HOST-PID-START-N.tmp` file left beside an
+//! output can only come from those, and is safe to delete (the output it was meant to replace is
+//! untouched); a later run on the same host removes it ([`crate::sys::temporary`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
