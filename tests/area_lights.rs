@@ -18,8 +18,10 @@ use strahl::integrator;
 use strahl::output::film::Film;
 use strahl::scene::{Scene, from_toml_str};
 
+/// `text` as a scene for the Whitted integrator, whose area-light estimates these tests check.
 fn scene(text: &str) -> Scene {
-    from_toml_str(text, Path::new("area.toml")).unwrap_or_else(|e| panic!("{e}")).scene
+    let text = format!("[render]\nintegrator = \"whitted\"\n{text}");
+    from_toml_str(&text, Path::new("area.toml")).unwrap_or_else(|e| panic!("{e}")).scene
 }
 
 /// A white diffuse floor (albedo 1) of 40 × 40 m at y = 0, and `rest` (camera, image, lights).

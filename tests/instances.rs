@@ -17,7 +17,7 @@ use strahl::math::Vec3;
 use strahl::output::film::Film;
 use strahl::scene::instance::flatten;
 use strahl::scene::transform::Transform;
-use strahl::scene::{CameraSpec, Instance, Scene, from_toml_str, procedural};
+use strahl::scene::{CameraSpec, Instance, IntegratorKind, RenderSpec, Scene, from_toml_str, procedural};
 use strahl::verify::crosscheck;
 use strahl::verify::workload::RayKind;
 
@@ -61,6 +61,9 @@ fn instanced_scene() -> Scene {
             .enumerate()
             .map(|(i, (transform, material))| Instance { name: format!("blob {i}"), prototype: 0, transform, material })
             .collect(),
+        // The Whitted integrator: one pixel-centre ray per pixel, for which the tolerances
+        // below were measured.
+        render: RenderSpec { integrator: IntegratorKind::Whitted, ..Default::default() },
         ..Default::default()
     }
 }

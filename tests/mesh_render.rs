@@ -84,11 +84,13 @@ impl Soup {
     }
 }
 
-/// The scene file `text`, in which `MESH` stands for the path of the data file `mesh`, written
+/// The scene file `text` for the Whitted integrator (whose pixel-centre rays and direct light
+/// these tests check), in which `MESH` stands for the path of the data file `mesh`, written
 /// to a temporary folder and loaded (without warnings); `None` when the test data is missing.
 fn data_scene(mesh: &str, text: &str) -> Option<Scene> {
     let path = data_dir()?.join(mesh);
     let dir = TempDir::new(mesh.split('/').next().unwrap());
+    let text = format!("[render]\nintegrator = \"whitted\"\n{text}");
     let scene = dir.write("scene.toml", text.replace("MESH", &format!("{:?}", path.display())));
     let loaded = strahl::scene::load(scene).unwrap_or_else(|e| panic!("{e}"));
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);

@@ -37,8 +37,9 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     assert!(stderr.contains("integrator \"bidirectional\" is not one of"), "{stderr}");
     assert!(!out.exists());
     // In the scene file: named with its line and column.
-    let bad =
-        dir.write("bad.toml", std::fs::read_to_string(cornell()).unwrap() + "\n[render]\nintegrator = \"photons\"\n");
+    let lecture = std::fs::read_to_string(cornell()).unwrap();
+    assert!(lecture.contains("integrator = \"whitted\""));
+    let bad = dir.write("bad.toml", lecture.replace("integrator = \"whitted\"", "integrator = \"photons\""));
     let e = fails(&dir, &["render", bad.to_str().unwrap(), "-o", o]);
     assert!(e.contains("bad.toml:") && e.contains("render: integrator \"photons\""), "{e}");
     std::fs::remove_file(&bad).unwrap();
@@ -49,4 +50,41 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     use exr::meta::attribute::{AttributeValue, Text};
     let attributes = &image.layer_data[0].attributes.other;
     assert_eq!(attributes.get(&Text::from("strahl/integrator")), Some(&AttributeValue::Text(Text::from("path"))));
+}
+
+/// The integrator an EXR's header names.
+fn integrator_of(exr: &Path) -> String {
+    use exr::meta::attribute::{AttributeValue, Text};
+    let image = common::read_exr_image(exr);
+    match image.layer_data[0].attributes.other.get(&Text::from("strahl/integrator")) {
+        Some(AttributeValue::Text(t)) => t.to_string(),
+        other => panic!("strahl/integrator is {other:?}"),
+    }
+}
+
+#[test]
+fn the_path_tracer_is_the_default_and_the_lecture_scenes_choose_whitted() {
+    let dir = TempDir::new("path-default");
+    // The Cornell box without its `[render]` table: path-traced, with a warning that the path
+    // tracer ignores the scene's ambient term.
+    let lecture = std::fs::read_to_string(cornell()).unwrap();
+    let chosen = "[render]\nintegrator = \"whitted\"";
+    assert!(lecture.contains(chosen));
+    let plain = dir.write("plain.toml", lecture.replace(chosen, ""));
+    let out = dir.path("plain.exr");
+    let args = ["--width", "8", "--height", "8", "--spp", "2"];
+    let run = strahl(&[&["render", plain.to_str().unwrap(), "-o", out.to_str().unwrap()][..], &args].concat());
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(integrator_of(&out), "path");
+    let stderr = text(&run.stderr);
+    assert!(stderr.contains("warning: ") && stderr.contains("ambient is the Whitted integrator's"), "{stderr}");
+    // Every lecture scene shipped says `whitted`, and renders so without a warning.
+    for name in ["whitted", "lecture", "cornell", "spheres", "blob"] {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.toml"));
+        let out = dir.path(&format!("{name}.exr"));
+        let run = strahl(&[&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()][..], &args].concat());
+        assert!(run.status.success(), "{name}: {}", text(&run.stderr));
+        assert_eq!(integrator_of(&out), "whitted", "{name}");
+        assert!(!text(&run.stderr).contains("warning"), "{name}: {}", text(&run.stderr));
+    }
 }

@@ -15,7 +15,7 @@ use strahl::integrator::{self, RayCounts, RenderError};
 use strahl::light::Light;
 use strahl::material::{Material, Texture};
 use strahl::math::Vec3;
-use strahl::scene::{CameraSpec, ImageSpec, Mesh, Scene};
+use strahl::scene::{CameraSpec, ImageSpec, IntegratorKind, Mesh, RenderSpec, Scene};
 
 const RHO: Vec3 = Vec3::new(0.8, 0.5, 0.2);
 const AMBIENT: Vec3 = Vec3::new(0.1, 0.2, 0.05);
@@ -23,10 +23,16 @@ const BACKGROUND: Vec3 = Vec3::new(0.3, 0.6, 0.9);
 const POINT: Vec3 = Vec3::new(1.0, 3.0, -1.0);
 const INTENSITY: Vec3 = Vec3::new(10.0, 20.0, 30.0);
 
+/// The integrator these tests check.
+fn whitted() -> RenderSpec {
+    RenderSpec { integrator: IntegratorKind::Whitted, ..Default::default() }
+}
+
 /// A floor `y = 0` of albedo ρ under a point light, seen from above at 9×7 pixels, all of
 /// which see the floor.
 fn floor_scene() -> Scene {
     Scene {
+        render: whitted(),
         camera: CameraSpec {
             eye: Vec3::new(0.0, 2.0, 4.0),
             target: Vec3::ZERO,
@@ -157,6 +163,7 @@ fn a_perfect_mirror_shows_the_background_exactly() {
 fn slab_scene(max_depth: u32) -> Scene {
     let glass = Material::clear_glass("glass", 1.5);
     Scene {
+        render: whitted(),
         camera: CameraSpec {
             eye: Vec3::new(0.0, 0.0, 5.0),
             target: Vec3::ZERO,
@@ -278,6 +285,7 @@ fn total_internal_reflection_keeps_light_inside() {
     let glass = Material::clear_glass("glass", 1.5);
     let theta = 60f32.to_radians();
     let s = Scene {
+        render: whitted(),
         camera: CameraSpec {
             eye: Vec3::new(0.0, -1.0, 0.0),
             target: Vec3::new(theta.tan(), 0.0, 0.0),
@@ -316,6 +324,7 @@ fn facing_perfect_mirrors_bounce_to_the_depth_limit_without_exhausting_the_stack
     let mirror = Material::mirror("mirror", Vec3::ONE);
     let max_depth = strahl::scene::MAX_DEPTH_LIMIT;
     let s = Scene {
+        render: whitted(),
         camera: CameraSpec {
             eye: Vec3::new(0.0, 0.5, 0.0),
             target: Vec3::ZERO,
@@ -357,6 +366,7 @@ fn vertex_colours_and_normals_are_interpolated_barycentrically() {
     let normals = [Vec3::new(-0.3, 0.0, 1.0), Vec3::new(0.3, 0.0, 1.0), Vec3::new(0.0, 0.4, 1.0)];
     let sphere = Sphere { center: Vec3::new(1.2, 0.3, -0.5), radius: 0.6, material: 0 };
     let s = Scene {
+        render: whitted(),
         camera: CameraSpec {
             eye: Vec3::new(0.0, 0.0, 4.0),
             target: Vec3::ZERO,
@@ -420,6 +430,7 @@ fn the_checkerboard_floor_alternates_by_world_cell() {
     // from above; the albedo AOV names the cell of each pixel's hit point.
     let (even, odd) = (Vec3::new(1.0, 0.2, 0.2), Vec3::new(0.9, 0.9, 0.1));
     let s = Scene {
+        render: whitted(),
         camera: CameraSpec {
             eye: Vec3::new(0.3, 6.0, 2.0),
             target: Vec3::new(0.2, -1.0, -0.5),

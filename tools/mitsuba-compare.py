@@ -116,10 +116,10 @@ def disk_to_world(center, normal, radius):
 
 
 def integrator(toml):
-    """Mitsuba's `direct` for strahl's Whitted integrator, its `path` for strahl's path tracer
-    (`[render] integrator = "path"`) with the same bounces: Mitsuba's `max_depth` counts path
+    """Mitsuba's `direct` for strahl's Whitted integrator (`[render] integrator = "whitted"`), its
+    `path` for strahl's path tracer (the default) with the same bounces: Mitsuba's `max_depth` counts path
     segments (1 shows the emitters only), strahl's scatterings (0 does), so it is strahl's + 1."""
-    if toml.get("render", {}).get("integrator", "whitted") == "path":
+    if toml.get("render", {}).get("integrator", "path") == "path":
         return {"type": "path", "max_depth": int(toml.get("image", {}).get("max_depth", 8)) + 1}
     return {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
 

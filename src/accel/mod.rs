@@ -6,6 +6,7 @@
 pub mod bvh;
 pub mod embree;
 pub mod instance;
+pub mod paired;
 
 use crate::math::{Ray, Vec3};
 
@@ -78,5 +79,26 @@ pub trait Accel: Sync {
             *o = self.occluded(ray)?;
         }
         Ok(())
+    }
+
+    /// For the `disagreement` pass: `differ[i]` says whether a second backend finds another
+    /// first hit for `rays[i]` than `hits[i]`, this backend's ([`same_first_hit`]). Only
+    /// [`paired::Paired`] has a second backend; alone, a backend agrees with itself and sets
+    /// every `differ[i]` to false.
+    fn compare_first_hits(&self, rays: &[Ray], hits: &[Option<Hit>], differ: &mut [bool]) -> Result<(), TraceError> {
+        let _ = (rays, hits);
+        differ.fill(false);
+        Ok(())
+    }
+}
+
+/// Whether two backends' answers for one ray name the same first hit: both none, or the same
+/// primitive (`geom_id`, `prim_id`). Their `t`, normal and barycentrics may differ by
+/// rounding.
+pub fn same_first_hit(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => (a.geom_id, a.prim_id) == (b.geom_id, b.prim_id),
+        _ => false,
     }
 }

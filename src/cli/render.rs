@@ -67,7 +67,8 @@ pub struct RenderArgs {
     /// The passes to write, comma-separated (overrides the scene's `[output] passes`):
     /// `default`, `all`, or names from combined, depth, normal, albedo, emission, diffuse,
     /// specular, reflection, transmission, background, position, object_index,
-    /// material_index, crypto_object, crypto_material.
+    /// material_index, crypto_object, crypto_material, disagreement (the camera rays traced
+    /// through both backends; not in `all`).
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     passes: Option<Vec<String>>,
     /// Render the background transparent: rays that escape give RGBA 0, alpha is coverage.

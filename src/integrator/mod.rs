@@ -268,6 +268,7 @@ fn render_tile<A: Accel, I: Integrator>(
     let width = scene.image.width as u64;
     let passes = scene.output.passes;
     let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
+    let compare = passes.contains(Pass::Disagreement);
     let pixels = tile.pixels_in_packet_order();
     let spp = scene.image.spp;
     let lens = camera.has_lens();
@@ -277,6 +278,7 @@ fn render_tile<A: Accel, I: Integrator>(
     let mut counts = RayCounts::default();
     let mut rays = Vec::with_capacity(pixels.len());
     let mut hits = vec![None; pixels.len()];
+    let mut differ = vec![false; if compare { pixels.len() } else { 0 }];
     // Written in place every round (a 160-byte value returned per pixel cost a memcpy call).
     let mut samples = vec![CameraSample::default(); pixels.len()];
     let mut scratch = I::Scratch::default();
@@ -284,6 +286,12 @@ fn render_tile<A: Accel, I: Integrator>(
         camera_rays(camera, &pixels, &mut samplers, sample, &mut rays);
         counts.primary += rays.len() as u64;
         accel.intersect_batch(&rays, &mut hits)?;
+        if compare {
+            accel.compare_first_hits(&rays, &hits, &mut differ)?;
+            for (acc, _) in accumulators.iter_mut().zip(&differ).filter(|(_, d)| **d) {
+                acc.add_disagreement();
+            }
+        }
         integrator.shade_round(&rays, &hits, &mut samplers, &mut counts, &mut scratch, &mut samples)?;
         for (acc, s) in accumulators.iter_mut().zip(&samples) {
             let object = s.first.filter(|_| crypto).map(|f| ids.object_of(scene, &f.hit));

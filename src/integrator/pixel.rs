@@ -5,8 +5,9 @@
 //! first ([`FirstHit`], for the AOVs). A [`PixelAccumulator`] adds a pixel's samples in sample
 //! order (so deterministically) and writes the box filter of them to the film: the mean over
 //! all `spp` samples for RGB, alpha and the light-path passes, over the samples that hit for
-//! normal and albedo, the nearest hit for depth, position and the index passes, and the
-//! Cryptomatte ranks of the objects and materials hit (what each channel holds:
+//! normal and albedo, the nearest hit for depth, position and the index passes, the
+//! Cryptomatte ranks of the objects and materials hit, and the fraction of samples whose camera
+//! ray two backends saw differently (what each channel holds:
 //! [`crate::output::film`]).
 
 use crate::accel::Hit;
@@ -93,6 +94,8 @@ pub struct PixelAccumulator {
     /// (object, samples) and (material, samples), only when a Cryptomatte pass is on.
     objects: Vec<(u32, u32)>,
     materials: Vec<(u32, u32)>,
+    /// Samples whose camera ray a second backend saw differently (the `disagreement` pass).
+    disagreements: u32,
 }
 
 /// Adds one sample of `key` to a list of (key, count).
@@ -124,6 +127,11 @@ impl PixelAccumulator {
                 count(&mut self.materials, f.material);
             }
         }
+    }
+
+    /// Counts one sample whose camera ray's first hit a second backend finds differently.
+    pub fn add_disagreement(&mut self) {
+        self.disagreements += 1;
     }
 
     /// Box filter: the mean over all `spp` samples for RGB and alpha, over the hit samples for
@@ -160,6 +168,7 @@ impl PixelAccumulator {
                     out[0] = self.nearest.map_or(0.0, |f| (ids.object_of(scene, &f.hit) + 1) as f32);
                 }
                 Pass::MaterialIndex => out[0] = self.nearest.map_or(0.0, |f| (f.material + 1) as f32),
+                Pass::Disagreement => out[0] = self.disagreements as f32 / spp as f32,
                 Pass::CryptoObject => {
                     let mut counts: Vec<(u32, u32)> =
                         self.objects.iter().map(|&(o, n)| (ids.object_id_bits[o as usize], n)).collect();

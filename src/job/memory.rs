@@ -14,7 +14,8 @@
 //!   every name the scene holds (one per sphere of a `random_spheres` object) at
 //!   [`STRING_BYTES`] plus its length.
 //! - **textures**: the decoded texels, 12 bytes each, every image once.
-//! - **BVH**: the peak of either backend's build, which holds its temporaries and the finished
+//! - **BVH**: the peak of either backend's build (both backends' with the `disagreement`
+//!   pass), which holds its temporaries and the finished
 //!   tree at once: [`TRIANGLE_BUILD_BYTES`] per triangle (meshes and prototypes, each once),
 //!   [`SPHERE_BUILD_BYTES`] per sphere, [`MESH_BUILD_BYTES`] per mesh and
 //!   [`BVH_BYTES_PER_INSTANCE`] per instance, plus Embree's own copy of every vertex and index
@@ -141,11 +142,13 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
     let triangles = meshes.clone().map(|m| m.indices.len() as u64).sum::<u64>();
     let vertices = meshes.clone().map(|m| m.positions.len() as u64).sum::<u64>();
     let embree_copy = 12 * (vertices + triangles);
-    let bvh = triangles * TRIANGLE_BUILD_BYTES
+    let one_bvh = triangles * TRIANGLE_BUILD_BYTES
         + scene.spheres.len() as u64 * SPHERE_BUILD_BYTES
         + meshes.count() as u64 * MESH_BUILD_BYTES
         + scene.instances.len() as u64 * BVH_BYTES_PER_INSTANCE
         + embree_copy;
+    // The disagreement pass keeps both backends' BVHs.
+    let bvh = if scene.output.passes.contains(Pass::Disagreement) { 2 * one_bvh } else { one_bvh };
     let floats: u64 = scene
         .output
         .passes

@@ -33,16 +33,18 @@ use anyhow::{Context, bail};
 use crate::accel::Accel;
 use crate::accel::bvh::Bvh;
 use crate::accel::embree::{self, BuildOptions, Device, DeviceOptions, EmbreeAccel};
+use crate::accel::paired::Paired;
 use crate::integrator::{self, RayCounts, TileJob};
+use crate::math::Vec3;
 use crate::output::checkpoint;
 use crate::output::exr::{Attribute, Compression, ExrOptions, Layout};
 use crate::output::exr_stream::BlockStream;
 use crate::output::film::Film;
 use crate::output::ids::ObjectIds;
 use crate::output::metadata::{RENDER_KEY, RenderInfo};
-use crate::output::passes::PassSet;
+use crate::output::passes::{Pass, PassSet};
 use crate::output::region::Region;
-use crate::scene::{ImageSpec, Scene};
+use crate::scene::{ImageSpec, IntegratorKind, Scene};
 use crate::sys::atomic::{directory_of, write_atomically_with};
 use crate::sys::same_file::same_file;
 
@@ -248,24 +250,51 @@ impl RenderJob {
     pub fn render(&self, observer: &Observer) -> anyhow::Result<Rendered> {
         let pool = thread_pool(self.threads)?;
         let shown = self.path.display();
-        match self.backend {
-            Backend::Embree => {
-                let device = embree_device(self.threads)?;
-                let build_start = Instant::now();
-                let accel = EmbreeAccel::build(&device, &self.scene, BuildOptions::default())
-                    .with_context(|| format!("{shown}: cannot build Embree's BVH"))?;
-                let build_seconds = build_start.elapsed().as_secs_f64();
-                self.trace(&pool, &accel, build_seconds, observer)
+        if self.scene.render.integrator == IntegratorKind::Path && self.scene.image.ambient != Vec3::ZERO {
+            (observer.note)(&format!(
+                "warning: {shown}: ambient is the Whitted integrator's stand-in for indirect light; the path \
+                 tracer computes that light and ignores it (`[render] integrator = \"whitted\"` renders the \
+                 lecture's image)"
+            ));
+        }
+        let build_start = Instant::now();
+        let build_native = || {
+            pool.install(|| Bvh::build(&self.scene)).with_context(|| format!("{shown}: cannot build the native BVH"))
+        };
+        let device = match self.backend {
+            Backend::Embree => Some(embree_device(self.threads)?),
+            Backend::Native if self.compares_backends() => Some(embree_device(self.threads)?),
+            Backend::Native => None,
+        };
+        let build_embree = || {
+            let device = device.as_ref().expect("an Embree device");
+            EmbreeAccel::build(device, &self.scene, BuildOptions::default())
+                .with_context(|| format!("{shown}: cannot build Embree's BVH"))
+        };
+        // The disagreement pass traces the camera rays through the other backend as well.
+        match (self.backend, self.compares_backends()) {
+            (Backend::Embree, false) => {
+                let accel = build_embree()?;
+                self.trace(&pool, &accel, build_start.elapsed().as_secs_f64(), observer)
             }
-            Backend::Native => {
-                let build_start = Instant::now();
-                let accel = pool
-                    .install(|| Bvh::build(&self.scene))
-                    .with_context(|| format!("{shown}: cannot build the native BVH"))?;
-                let build_seconds = build_start.elapsed().as_secs_f64();
-                self.trace(&pool, &accel, build_seconds, observer)
+            (Backend::Native, false) => {
+                let accel = build_native()?;
+                self.trace(&pool, &accel, build_start.elapsed().as_secs_f64(), observer)
+            }
+            (Backend::Embree, true) => {
+                let accel = Paired { first: build_embree()?, second: build_native()? };
+                self.trace(&pool, &accel, build_start.elapsed().as_secs_f64(), observer)
+            }
+            (Backend::Native, true) => {
+                let accel = Paired { first: build_native()?, second: build_embree()? };
+                self.trace(&pool, &accel, build_start.elapsed().as_secs_f64(), observer)
             }
         }
+    }
+
+    /// Whether the render writes the `disagreement` pass, for which it builds both backends.
+    fn compares_backends(&self) -> bool {
+        self.scene.output.passes.contains(Pass::Disagreement)
     }
 
     /// Writes `rendered` to the job's output: both files whole in their temporaries first, then
@@ -518,7 +547,18 @@ impl fmt::Display for Summary<'_> {
             image.max_depth,
             if threads == 1 { "" } else { "s" }
         )?;
-        writeln!(f, "  backend: {}, BVH built in {:.1} ms", job.backend.name(), 1e3 * rendered.build_seconds)?;
+        let other = match job.backend {
+            Backend::Embree => "native",
+            Backend::Native => "embree",
+        };
+        let compared =
+            if job.compares_backends() { format!(" (camera rays compared with {other})") } else { String::new() };
+        writeln!(
+            f,
+            "  backend: {}{compared}, BVH built in {:.1} ms",
+            job.backend.name(),
+            1e3 * rendered.build_seconds
+        )?;
         writeln!(f, "  rays: {}", ray_summary(&rendered.rays))?;
         // The rendering threads also compressed the EXR's blocks as tiles finished: the rays'
         // rate is over the rest of the time.

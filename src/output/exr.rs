@@ -185,6 +185,7 @@ pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
         Pass::Position => ("Position", "P", &XYZ),
         Pass::ObjectIndex => ("IndexOB", "object_index", &["X"]),
         Pass::MaterialIndex => ("IndexMA", "material_index", &["X"]),
+        Pass::Disagreement => ("Disagreement", "disagreement", &["X"]),
         Pass::CryptoObject | Pass::CryptoMaterial => {
             let layer = format!("{}{:02}", crypto_type(pass), component / 4);
             return match layout {

@@ -23,11 +23,18 @@
 //! | `material_index` | `IndexMA` (X) | 1 + the material's index in the scene (0 on a miss) | 1 |
 //! | `crypto_object` | `CryptoObject00..` | Cryptomatte ranks of the objects ([`crate::output::cryptomatte`]) | id, coverage |
 //! | `crypto_material` | `CryptoMaterial00..` | Cryptomatte ranks of the materials | id, coverage |
+//! | `disagreement` | `Disagreement` (X) | the fraction of the pixel's camera rays whose first hit (primitive, or none) differs between Embree and the native BVH | 1 |
 //!
 //! Light passes are means over all of the pixel's samples, like the beauty; depth, position
 //! and the indices belong to the nearest hit sample; normal and albedo are means over the
 //! hit samples. What is seen through a mirror (background included) is reflection, not
 //! background: `Env` holds only what camera rays see directly.
+//!
+//! `disagreement` traces every camera ray through both backends (the render's own and the
+//! other one, [`crate::accel::paired`]): it shows, in any render, where Embree and the native
+//! BVH would not agree (grazing rays along shared edges, where rounding decides;
+//! `strahl crosscheck` explains them). It costs the second BVH and a second camera ray per
+//! sample, so `all` leaves it out.
 
 use std::fmt;
 
@@ -49,6 +56,7 @@ pub enum Pass {
     MaterialIndex,
     CryptoObject,
     CryptoMaterial,
+    Disagreement,
 }
 
 /// The light-path passes, in the order they are summed.
@@ -57,7 +65,7 @@ pub const LIGHT_PASSES: [Pass; 6] =
 
 impl Pass {
     /// Every pass, in the order of the module docs (and of the channels in the film).
-    pub const ALL: [Pass; 15] = [
+    pub const ALL: [Pass; 16] = [
         Pass::Combined,
         Pass::Depth,
         Pass::Normal,
@@ -73,6 +81,7 @@ impl Pass {
         Pass::MaterialIndex,
         Pass::CryptoObject,
         Pass::CryptoMaterial,
+        Pass::Disagreement,
     ];
 
     /// The name on the command line and in `[output] passes`.
@@ -93,6 +102,7 @@ impl Pass {
             Pass::MaterialIndex => "material_index",
             Pass::CryptoObject => "crypto_object",
             Pass::CryptoMaterial => "crypto_material",
+            Pass::Disagreement => "disagreement",
         }
     }
 
@@ -122,7 +132,7 @@ impl Pass {
     pub fn floats_per_pixel(self, crypto_levels: u32) -> usize {
         match self {
             Pass::Combined => 4,
-            Pass::Depth | Pass::ObjectIndex | Pass::MaterialIndex => 1,
+            Pass::Depth | Pass::ObjectIndex | Pass::MaterialIndex | Pass::Disagreement => 1,
             Pass::CryptoObject | Pass::CryptoMaterial => 4 * crypto_levels.div_ceil(2) as usize,
             _ => 3,
         }
@@ -152,9 +162,9 @@ impl PassSet {
         PassSet(passes.iter().fold(1 << Pass::Combined as u32, |bits, &p| bits | 1 << p as u32))
     }
 
-    /// Every pass.
+    /// Every pass but `disagreement` (which traces a second backend, see the module docs).
     pub fn all() -> PassSet {
-        PassSet::of(&Pass::ALL)
+        PassSet(PassSet::of(&Pass::ALL).0 & !(1 << Pass::Disagreement as u32))
     }
 
     pub fn contains(self, pass: Pass) -> bool {
@@ -172,7 +182,7 @@ impl PassSet {
     }
 
     /// Parses a list of pass names: each a [`Pass::name`], or `default` (the default set) or
-    /// `all`. `combined` is always included. Errors name the unknown pass and the known ones.
+    /// `all` ([`PassSet::all`]). `combined` is always included. Errors name the unknown pass and the known ones.
     pub fn parse<S: AsRef<str>>(names: &[S]) -> Result<PassSet, String> {
         let mut set = PassSet::of(&[]);
         for name in names {

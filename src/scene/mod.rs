@@ -119,11 +119,12 @@ impl Default for ImageSpec {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum IntegratorKind {
     /// The lecture's ray tracer: direct light, mirrors, glass, an ambient term
-    /// ([`crate::integrator::whitted`]).
-    #[default]
+    /// ([`crate::integrator::whitted`]). Scenes written for it say so (`[render] integrator =
+    /// "whitted"`), as the lecture scenes in `scenes/` do.
     Whitted,
     /// Unidirectional path tracing with next-event estimation and MIS
-    /// ([`crate::integrator::path`]).
+    /// ([`crate::integrator::path`]): the default.
+    #[default]
     Path,
 }
 

@@ -5,7 +5,7 @@
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use super::{CameraSpec, ImageSpec, Mesh, Scene};
+use super::{CameraSpec, ImageSpec, IntegratorKind, Mesh, RenderSpec, Scene};
 use crate::geometry::{Plane, Sphere};
 use crate::light::Light;
 use crate::material::{Material, Texture};
@@ -162,7 +162,7 @@ pub fn random_rays(n: usize, bounds: Aabb, seed: u64) -> Vec<Ray> {
 /// red-and-yellow checkered floor, a mirror ball, a glass ball (ior 1.5), a glossy icosphere
 /// mesh with vertex normals, and three small diffuse balls, under a point light and a
 /// directional light, against a blue background. Every kind of ray the integrator traces
-/// occurs in it.
+/// occurs in it. It is rendered by the Whitted integrator.
 pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
     let materials = vec![
         Material {
@@ -226,6 +226,7 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
         meshes: vec![ball],
         spheres,
         planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0)],
+        render: RenderSpec { integrator: IntegratorKind::Whitted, ..Default::default() },
         ..Default::default()
     }
 }

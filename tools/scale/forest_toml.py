@@ -14,6 +14,9 @@ from pathlib import Path
 HEADER = """# {title}
 # Written by tools/scale/forest_toml.py; render with `make scale` (see docs/performance.md, Memory).
 
+[render]
+integrator = "whitted"   # the lecture's tracer: direct light, mirrors, glass, ambient
+
 [camera]
 eye = [0.0, 9.0, 24.0]
 target = [0.0, 0.0, -14.0]

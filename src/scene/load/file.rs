@@ -254,7 +254,7 @@ struct SceneFile {
     render: Option<Spanned<RenderFile>>,
 }
 
-/// `[render]`: the integrator (`"whitted"`, the default, or `"path"`) and the path tracer's
+/// `[render]`: the integrator (`"path"`, the default, or `"whitted"`) and the path tracer's
 /// `clamp` of indirect light.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

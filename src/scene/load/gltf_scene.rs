@@ -171,7 +171,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
             warnings.push(format!("{}: has no perspective camera; framing the scene from +z", path.display()));
         }
     }
-    if scene.lights.is_empty() {
+    if scene.lights.is_empty() && !emits(&scene) {
         let direction = (scene.camera.target - scene.camera.eye).normalize();
         scene.lights.push(Light::Directional { direction, irradiance: Vec3::splat(DEFAULT_LIGHT_IRRADIANCE) });
         warnings.push(format!(
@@ -181,4 +181,14 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
     }
     crate::scene::magnitude::check(path, &scene)?;
     Ok(Loaded { scene, warnings, objects: vec![summary] })
+}
+
+/// Whether some mesh of `scene` has an emitting material: such a file lights itself, and gets
+/// no added light.
+fn emits(scene: &Scene) -> bool {
+    let emissive = |m: u32| scene.materials.get(m as usize).is_some_and(|m| m.emission != Vec3::ZERO);
+    scene.meshes.iter().any(|mesh| match &mesh.triangle_materials {
+        Some(ids) => ids.iter().any(|&m| emissive(m)),
+        None => emissive(mesh.material),
+    })
 }

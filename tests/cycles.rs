@@ -1,0 +1,188 @@
+//! The path tracer against Blender Cycles on the same glTF file: tools/gltf/blender_cornell.py
+//! builds a Cornell-like room in Blender (diffuse walls and block, a mirror-like metal sphere, a
+//! glass sphere, an emissive square in the ceiling), exports it with Blender's own glTF exporter
+//! and renders it with Cycles, set to what strahl computes (see the script). strahl renders the
+//! exported file; the two images must agree within their noise.
+//!
+//! Noise is estimated from each image itself, block by block (it is larger where caustics
+//! are): in a smooth region a pixel's difference from the mean of its four neighbours has
+//! variance `σ²·(1 + 1/4)`, and a block of `n` pixels has `σ/√n` (edges inside a block only
+//! make this larger, so the test is conservative there). A block fails when its two means
+//! differ by more than 4 combined σ; the whole image's relative mean difference must stay under
+//! 1 %.
+//!
+//! Also: no pixel is black (every pixel sees a lit surface of the room, so a black pixel is a
+//! ray that hit its own surface at a concave seam: robust ray offsets prevent it), with both
+//! backends.
+//!
+//! Skips, saying so, when Blender is not installed; `make test-cycles` installs Blender and runs
+//! it with `STRAHL_REQUIRE_BLENDER=1`, which turns the skip into a failure.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::{TempDir, channel, read_exr, strahl};
+
+const SIZE: usize = 64;
+const DEPTH: u32 = 8;
+const CYCLES_SPP: u32 = 1024;
+const STRAHL_SPP: u32 = 1024;
+const BLOCK: usize = 8;
+const STRAHL_LAYER: &str = "ViewLayer.Combined.";
+
+/// The exported glTF file and Cycles' render of it (`spp` samples; 0: none), in `dir`; the
+/// script's closed variant if `opaque`; `None` (with a loud message) when Blender is missing.
+fn blender_cornell(dir: &Path, spp: u32, opaque: bool) -> Option<(PathBuf, PathBuf)> {
+    if Command::new("blender").arg("--version").output().is_err() {
+        assert!(
+            std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
+            "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
+        );
+        common::skip("blender is not installed (apt-get install blender python3-numpy; make test-cycles installs it)");
+        return None;
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_cornell.py");
+    let out = Command::new("blender")
+        .args(["-b", "--factory-startup", "--python"])
+        .arg(&script)
+        .arg("--")
+        .arg(dir)
+        .args([SIZE.to_string(), spp.to_string(), DEPTH.to_string()])
+        .args(opaque.then_some("opaque"))
+        .output()
+        .expect("blender runs");
+    let (glb, exr) = (dir.join("cornell.glb"), dir.join("cycles.exr"));
+    assert!(
+        out.status.success() && glb.exists() && (spp == 0 || exr.exists()),
+        "blender failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some((glb, exr))
+}
+
+/// The sum R + G + B of every pixel of `path`, a `size` × `size` image whose colour channels
+/// are `layer` + R, G, B (Cycles writes plain R, G, B; strahl `ViewLayer.Combined.R`, ...).
+fn rgb_sum(path: &Path, layer: &str, size: usize) -> Vec<f64> {
+    let (w, h, channels) = read_exr(path);
+    assert_eq!((w, h), (size, size), "{}", path.display());
+    let c = |name: &str| channel(&channels, &format!("{layer}{name}")).to_vec();
+    let (r, g, b) = (c("R"), c("G"), c("B"));
+    (0..w * h).map(|i| r[i] as f64 + g[i] as f64 + b[i] as f64).collect()
+}
+
+/// Each block's noise: the standard error of its mean, from the RMS difference between each
+/// pixel and the mean of its four neighbours (variance `σ²·(1 + 1/4)` where the image is
+/// smooth; edges only make it larger), over the block's pixels that have four neighbours.
+fn block_sigmas(img: &[f64]) -> Vec<f64> {
+    let n = SIZE / BLOCK;
+    let (mut sums, mut counts) = (vec![0.0; n * n], vec![0usize; n * n]);
+    for y in 1..SIZE - 1 {
+        for x in 1..SIZE - 1 {
+            let i = y * SIZE + x;
+            let around = (img[i - 1] + img[i + 1] + img[i - SIZE] + img[i + SIZE]) / 4.0;
+            let k = (y / BLOCK) * n + x / BLOCK;
+            sums[k] += (img[i] - around).powi(2) / 1.25;
+            counts[k] += 1;
+        }
+    }
+    sums.iter().zip(&counts).map(|(s, &c)| (s / c as f64).sqrt() / ((BLOCK * BLOCK) as f64).sqrt()).collect()
+}
+
+fn block_means(img: &[f64]) -> Vec<f64> {
+    let n = SIZE / BLOCK;
+    let mut means = vec![0.0; n * n];
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            means[(y / BLOCK) * n + x / BLOCK] += img[y * SIZE + x] / (BLOCK * BLOCK) as f64;
+        }
+    }
+    means
+}
+
+fn render(dir: &TempDir, glb: &Path, name: &str, size: usize, spp: u32, extra: &[&str]) -> PathBuf {
+    let exr = dir.path(name);
+    let (size, spp, depth) = (size.to_string(), spp.to_string(), DEPTH.to_string());
+    let mut args = vec![
+        "render",
+        glb.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--integrator",
+        "path",
+        "--width",
+        &size,
+        "--height",
+        &size,
+        "--spp",
+        &spp,
+        "--depth",
+        &depth,
+    ];
+    args.extend_from_slice(extra);
+    let out = strahl(&args);
+    assert!(out.status.success(), "strahl failed: {}", String::from_utf8_lossy(&out.stderr));
+    exr
+}
+
+#[test]
+fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
+    let dir = TempDir::new("cycles");
+    let Some((glb, cycles_exr)) = blender_cornell(&dir.0, CYCLES_SPP, false) else { return };
+    let strahl_exr = render(&dir, &glb, "strahl.exr", SIZE, STRAHL_SPP, &[]);
+    let (s, c) = (rgb_sum(&strahl_exr, STRAHL_LAYER, SIZE), rgb_sum(&cycles_exr, "", SIZE));
+    let (sigma_s, sigma_c) = (block_sigmas(&s), block_sigmas(&c));
+    let (ms, mc) = (block_means(&s), block_means(&c));
+    let mut worst = (0.0f64, 0);
+    let mut failing = Vec::new();
+    for k in 0..ms.len() {
+        let z = (ms[k] - mc[k]) / (sigma_s[k].powi(2) + sigma_c[k].powi(2)).sqrt();
+        if z.abs() > worst.0.abs() {
+            worst = (z, k);
+        }
+        if z.abs() > 4.0 {
+            let (a, b) = (ms[k], mc[k]);
+            failing.push(format!("block {k} (x {}, y {}): strahl {a:.4}, Cycles {b:.4}, z {z:.1}", k % 8, k / 8));
+        }
+    }
+    let (sum_s, sum_c) = (s.iter().sum::<f64>(), c.iter().sum::<f64>());
+    let relative = (sum_s - sum_c) / sum_c;
+    eprintln!(
+        "strahl vs Cycles: worst z {:.2} (block {}), image mean {:.5} vs {:.5} ({:+.3} %)",
+        worst.0,
+        worst.1,
+        sum_s / s.len() as f64,
+        sum_c / c.len() as f64,
+        100.0 * relative
+    );
+    assert!(failing.is_empty(), "blocks beyond 4 σ:\n{}", failing.join("\n"));
+    assert!(relative.abs() < 0.01, "image means differ by {:.3} %", 100.0 * relative);
+}
+
+#[test]
+fn the_closed_room_has_no_black_pixel_and_both_backends_agree() {
+    let dir = TempDir::new("cycles-seams");
+    let Some((glb, _)) = blender_cornell(&dir.0, 0, true) else { return };
+    // The closed room seen from inside (the `opaque` variant of the script: the glass sphere
+    // diffuse, the spheres off the floor, a front wall): every path stays in the room until
+    // it finds the light or ends, so a pixel whose 32 paths all bring nothing is a seam where
+    // secondary rays hit their own surface.
+    const SEAM_SIZE: usize = 240;
+    let mut means = Vec::new();
+    for backend in ["embree", "native"] {
+        let exr = render(&dir, &glb, &format!("{backend}.exr"), SEAM_SIZE, 32, &["--backend", backend]);
+        let img = rgb_sum(&exr, STRAHL_LAYER, SEAM_SIZE);
+        let black: Vec<usize> = (0..img.len()).filter(|&i| img[i] <= 0.0).collect();
+        let first = black.first().map(|i| (i % SEAM_SIZE, i / SEAM_SIZE));
+        assert!(black.is_empty(), "{backend}: {} black pixels, the first at {first:?}", black.len());
+        means.push(img.iter().sum::<f64>() / img.len() as f64);
+    }
+    // Both backends trace the same paths (a pixel's samples depend on its index alone), so
+    // their images agree but for rounding: 1.72029 and 1.72032 here. Without the offsets the
+    // rays that restart on their own surface are lost differently by each (measured: 1.560
+    // and 1.504, 10 % dark), with no pixel black.
+    let relative = (means[0] - means[1]).abs() / means[1];
+    assert!(relative < 1e-3, "embree mean {} vs native {}", means[0], means[1]);
+}

@@ -1,0 +1,204 @@
+"""Builds a Cornell-like room in Blender, exports it with Blender's own glTF exporter and renders
+it with Cycles, for the path tracer's comparison with Cycles (tests/cycles.rs,
+`make test-cycles`).
+
+    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque]
+
+writes OUT_DIR/cornell.glb and OUT_DIR/cycles.exr (SIZE x SIZE pixels, SPP samples, scene-linear
+RGBA floats; SPP 0 exports without rendering). `opaque` makes the glass sphere white diffuse, lifts
+both spheres 0.2 off the floor, closes the room with a white front wall and puts the camera
+inside it (at (0, -0.9, 1), a 16 mm lens): then every pixel sees a surface of a closed, lit
+room, with no contact point where the light goes to 0 and no opening for paths to escape. In Blender's Z-up coordinates (the exporter turns (x, y, z) into glTF's (x, z, -y)):
+
+- a room x, y in [-1, 1], z in [0, 2], open towards -y: white floor, ceiling and back wall
+  (0.725, 0.71, 0.68), red left wall (0.63, 0.065, 0.05), green right wall (0.14, 0.45, 0.091);
+- the light: a 0.5 m square in a hole of the same size in the ceiling, facing down, emitting
+  white radiance 15 W/(m^2 sr) (Emission strength 15; glTF emissiveFactor 1 and
+  KHR_materials_emissive_strength 15); nothing is above it, so its back side lights nothing;
+- a white diffuse block, a mirror-like metal sphere (metallic 1, roughness 0, base 0.9) and a
+  glass sphere (transmission 1, IOR 1.5, roughness 0);
+- a camera at (0, -3.9, 1) looking along +y, 60 mm lens on a 36 mm sensor (a square image
+  that sees nothing but the room).
+
+Diffuse surfaces are exported as the glTF metallic-roughness material (metallic 0, roughness 1,
+specular 0) and rendered by Cycles with its Diffuse BSDF (Lambert), which is what that glTF
+material is; Cycles' Principled BSDF would add its Disney diffuse retro-reflection instead.
+Cycles is set to what strahl's path tracer computes: DEPTH scatterings (Cycles' max bounces
+DEPTH - 1, every kind), no clamp, no glossy filter, caustics on, no adaptive sampling, no
+denoising, a box filter of one pixel (strahl's) and a black world.
+"""
+
+import math
+import os
+import sys
+
+import bpy
+
+args = sys.argv[sys.argv.index("--") + 1 :]
+out_dir, size, spp, depth = args[:4]
+size, spp, depth = int(size), int(spp), int(depth)
+opaque = args[4:] == ["opaque"]
+os.makedirs(out_dir, exist_ok=True)
+
+for obj in list(bpy.data.objects):
+    bpy.data.objects.remove(obj, do_unlink=True)
+scene = bpy.context.scene
+
+WHITE = (0.725, 0.71, 0.68)
+RED = (0.63, 0.065, 0.05)
+GREEN = (0.14, 0.45, 0.091)
+
+
+def principled(name, base, metallic=0.0, roughness=1.0, transmission=0.0, specular=0.0):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*base, 1.0)
+    bsdf.inputs["Metallic"].default_value = metallic
+    bsdf.inputs["Roughness"].default_value = roughness
+    bsdf.inputs["Transmission"].default_value = transmission
+    bsdf.inputs["Specular"].default_value = specular
+    bsdf.inputs["IOR"].default_value = 1.5
+    return mat
+
+
+def emitter(name, strength):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    emission.inputs["Strength"].default_value = strength
+    mat.node_tree.links.new(emission.outputs["Emission"], nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
+def mesh_object(name, verts, faces, mat, smooth=False):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    mesh.update()
+    if smooth:
+        for p in mesh.polygons:
+            p.use_smooth = True
+    mesh.materials.append(mat)
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+white = principled("white", WHITE)
+red = principled("red", RED)
+green = principled("green", GREEN)
+# Faces wound so that their normals face into the room.
+mesh_object("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], white)
+mesh_object("back", [(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], [(0, 1, 2, 3)], white)
+mesh_object("left", [(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], [(0, 1, 2, 3)], red)
+mesh_object("right", [(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], [(0, 1, 2, 3)], green)
+if opaque:
+    mesh_object("front", [(-1, -1, 0), (-1, -1, 2), (1, -1, 2), (1, -1, 0)], [(0, 1, 2, 3)], white)
+h = 0.25
+outer = [(-1, -1, 2), (1, -1, 2), (1, 1, 2), (-1, 1, 2)]
+inner = [(-h, -h, 2), (h, -h, 2), (h, h, 2), (-h, h, 2)]
+mesh_object(
+    "ceiling",
+    outer + inner,
+    [(0, 4, 5, 1), (1, 5, 6, 2), (2, 6, 7, 3), (3, 7, 4, 0)],
+    white,
+)
+mesh_object("light", [(-h, -h, 2), (-h, h, 2), (h, h, 2), (h, -h, 2)], [(0, 1, 2, 3)], emitter("light", 15.0))
+
+bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-0.45, 0.35, 0.6), rotation=(0, 0, math.radians(20)))
+block = bpy.context.active_object
+block.name = "block"
+block.scale = (0.55, 0.55, 1.2)
+block.data.materials.append(principled("block", WHITE))
+
+# `opaque` lifts both spheres off the floor, so that no point of the floor is a contact point,
+# where the light goes to 0.
+lift = 0.2 if opaque else 0.0
+bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.35, location=(0.5, 0.3, 0.35 + lift))
+metal = bpy.context.active_object
+metal.name = "metal"
+bpy.ops.object.shade_smooth()
+metal.data.materials.append(principled("metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0, specular=0.5))
+
+bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.3, location=(0.35, -0.45, 0.3 + lift))
+glass = bpy.context.active_object
+glass.name = "glass"
+bpy.ops.object.shade_smooth()
+if opaque:
+    glass.data.materials.append(principled("opaque", WHITE))
+else:
+    glass.data.materials.append(principled("glass", (1.0, 1.0, 1.0), roughness=0.0, transmission=1.0, specular=0.5))
+
+cam_data = bpy.data.cameras.new("camera")
+cam_data.lens = 16.0 if opaque else 60.0
+cam_data.sensor_width = 36.0
+cam_data.sensor_fit = "AUTO"
+cam = bpy.data.objects.new("camera", cam_data)
+cam.location = (0.0, -0.9, 1.0) if opaque else (0.0, -3.9, 1.0)
+cam.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+scene.collection.objects.link(cam)
+scene.camera = cam
+scene.render.resolution_x = size
+scene.render.resolution_y = size
+scene.render.resolution_percentage = 100
+
+bpy.ops.export_scene.gltf(
+    filepath=os.path.join(out_dir, "cornell.glb"),
+    export_format="GLB",
+    export_cameras=True,
+    export_lights=False,
+    export_apply=True,
+)
+
+if spp == 0:
+    sys.exit(0)
+
+# Cycles renders what the glTF file says: Lambert where the glTF material is diffuse.
+for mat in (white, red, green, block.data.materials[0]) + ((glass.data.materials[0],) if opaque else ()):
+    nodes = mat.node_tree.nodes
+    base = nodes["Principled BSDF"].inputs["Base Color"].default_value[:]
+    nodes.remove(nodes["Principled BSDF"])
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = base
+    diffuse.inputs["Roughness"].default_value = 0.0
+    mat.node_tree.links.new(diffuse.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
+
+world = bpy.data.worlds.new("black")
+world.use_nodes = True
+world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+scene.world = world
+
+scene.render.engine = "CYCLES"
+cycles = scene.cycles
+cycles.device = "CPU"
+cycles.samples = spp
+cycles.use_adaptive_sampling = False
+cycles.use_denoising = False
+cycles.seed = 0
+cycles.max_bounces = depth - 1
+cycles.diffuse_bounces = depth - 1
+cycles.glossy_bounces = depth - 1
+cycles.transmission_bounces = depth - 1
+cycles.transparent_max_bounces = depth - 1
+cycles.volume_bounces = 0
+cycles.sample_clamp_direct = 0.0
+cycles.sample_clamp_indirect = 0.0
+cycles.blur_glossy = 0.0
+cycles.caustics_reflective = True
+cycles.caustics_refractive = True
+cycles.pixel_filter_type = "BOX"
+cycles.filter_width = 1.0
+scene.render.threads_mode = "AUTO"
+scene.view_settings.view_transform = "Standard"
+scene.view_settings.look = "None"
+scene.view_settings.exposure = 0.0
+scene.view_settings.gamma = 1.0
+scene.render.image_settings.file_format = "OPEN_EXR"
+scene.render.image_settings.color_depth = "32"
+scene.render.image_settings.color_mode = "RGBA"
+scene.render.filepath = os.path.join(out_dir, "cycles.exr")
+bpy.ops.render.render(write_still=True)
+print("WROTE", scene.render.filepath)
