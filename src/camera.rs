@@ -30,6 +30,11 @@
 //! disk of radius `a·|1/f − 1/z|` on the image plane at distance 1, the thin-lens circle of
 //! confusion. `a = 0` is the pinhole above, bit for bit.
 //!
+//! **Orthographic.** With `ortho_half_height = h > 0` (glTF's `ymag`) the image plane passes
+//! through the eye with edges `t = h`, `b = −t`, `r = t·W/H`, `l = −r` (metres), and every ray
+//! leaves its own point of it along the view direction: `r(t) = e + u·u + v·v − t·w`. `fov_deg`
+//! plays no part, and a lens is refused.
+//!
 //! The basis and the ray directions are computed in f64 and rounded to f32 once, so a ray is
 //! the correctly rounded lecture formula: the centre pixel of an odd-sized image looks exactly
 //! along `−w` (as f32), and rays of neighbouring pixels differ by what the geometry says, not
@@ -55,6 +60,8 @@ pub enum CameraError {
     UpParallelToView { up: Vec3, view: Vec3 },
     #[error("camera: fov_deg {0} is not between 0 and 180 degrees (exclusive)")]
     FovOutOfRange(f32),
+    #[error("camera: an orthographic camera has no lens (aperture {0})")]
+    OrthographicLens(f32),
     #[error("camera: the image size {width}×{height} has no pixels")]
     EmptyImage { width: u32, height: u32 },
     /// A point or length beyond the range strahl traces ([`crate::scene::magnitude`]).
@@ -79,6 +86,8 @@ pub struct Camera {
     /// Lens radius `a` (0: pinhole) and focus distance `f`.
     aperture: f64,
     focus: f64,
+    /// Whether the rays are parallel (an orthographic camera; the edges are then in metres).
+    ortho: bool,
 }
 
 /// `up` counts as parallel to the view direction when the sine of the angle between them is
@@ -115,10 +124,19 @@ impl Camera {
         }
         let u = side.normalize();
         let v = w.cross(u).normalize();
-        let t = IMAGE_PLANE_DISTANCE * (0.5 * (spec.fov_deg as f64).to_radians()).tan();
+        let ortho = spec.lens.ortho_half_height > 0.0;
+        if ortho && spec.lens.aperture != 0.0 {
+            return Err(CameraError::OrthographicLens(spec.lens.aperture));
+        }
+        let t = match ortho {
+            true => spec.lens.ortho_half_height as f64,
+            false => IMAGE_PLANE_DISTANCE * (0.5 * (spec.fov_deg as f64).to_radians()).tan(),
+        };
         let r = t * width as f64 / height as f64;
         let (aperture, focus) = (spec.lens.aperture as f64, spec.lens.focus_distance as f64);
-        if !(aperture >= 0.0 && aperture.is_finite() && focus >= 0.0 && focus.is_finite()) {
+        let h = spec.lens.ortho_half_height;
+        if !(aperture >= 0.0 && aperture.is_finite() && focus >= 0.0 && focus.is_finite() && h >= 0.0 && h.is_finite())
+        {
             return Err(CameraError::NotFinite { what: "lens", value: format!("{:?}", spec.lens) });
         }
         // Rays from beyond the range would abort Embree (crate::scene::magnitude).
@@ -126,7 +144,7 @@ impl Camera {
             return Err(CameraError::OutOfRange(problem));
         }
         let focus = if focus > 0.0 { focus } else { back.length() };
-        Ok(Camera { eye, u, v, w, l: -r, r, b: -t, t, width, height, aperture, focus })
+        Ok(Camera { eye, u, v, w, l: -r, r, b: -t, t, width, height, aperture, focus, ortho })
     }
 
     /// The basis `(u, v, w)`: right, up, and backwards (away from the target).
@@ -164,7 +182,17 @@ impl Camera {
     #[inline]
     pub fn ray(&self, x: u32, y: u32, offset: Vec2) -> Ray {
         let s = self.direction_f64(x, y, offset);
+        if self.ortho {
+            // `s = u·u + v·v − d·w`: the origin is its part in the image plane.
+            let origin = self.eye + s + IMAGE_PLANE_DISTANCE * self.w;
+            return Ray::new(origin.as_vec3(), (-self.w).as_vec3());
+        }
         Ray::new(self.eye.as_vec3(), (s / s.length()).as_vec3())
+    }
+
+    /// Whether the rays are parallel (an orthographic camera).
+    pub fn is_orthographic(&self) -> bool {
+        self.ortho
     }
 
     /// Whether the camera has a lens (an aperture > 0) and so needs lens samples.
@@ -213,7 +241,7 @@ mod tests {
     #[test]
     fn the_focus_plane_is_sharp_and_other_planes_blur_by_the_circle_of_confusion() {
         let (a, f) = (0.05f32, 4.0f32);
-        let lens = Lens { aperture: a, focus_distance: f };
+        let lens = Lens { aperture: a, focus_distance: f, ..Lens::PINHOLE };
         let spec = CameraSpec { lens, ..spec(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0) };
         let c = Camera::new(&spec, 64, 48).unwrap();
         let pinhole = Camera::new(&CameraSpec { lens: Lens::PINHOLE, ..spec }, 64, 48).unwrap();
@@ -243,6 +271,23 @@ mod tests {
     }
 
     #[test]
+    fn orthographic_rays_are_parallel_from_the_view_rectangle() {
+        let lens = Lens { ortho_half_height: 1.5, ..Lens::PINHOLE };
+        let spec = CameraSpec { lens, ..spec(Vec3::new(1.0, 2.0, 5.0), Vec3::new(1.0, 2.0, 0.0), Vec3::Y, 40.0) };
+        let c = Camera::new(&spec, 4, 2).unwrap();
+        assert!(c.is_orthographic());
+        // Edges t = 1.5, r = 3 (metres); pixel (0, 0)'s centre is at u = −3 + 6·0.5/4, v = 1.5 − 3·0.5/2.
+        let r = c.centre_ray(0, 0);
+        assert_eq!(r.org, Vec3::new(1.0 - 2.25, 2.0 + 0.75, 5.0));
+        assert_eq!(r.dir, -Vec3::Z);
+        assert_eq!(c.centre_ray(3, 1).org, Vec3::new(1.0 + 2.25, 2.0 - 0.75, 5.0));
+        // The lens path gives the same rays; a lens is refused.
+        assert_eq!(c.lens_ray(2, 1, Vec2::splat(0.5), Vec2::splat(0.3)), c.centre_ray(2, 1));
+        let with_lens = CameraSpec { lens: Lens { aperture: 0.1, ..lens }, ..spec };
+        assert!(Camera::new(&with_lens, 4, 2).unwrap_err().to_string().contains("orthographic"));
+    }
+
+    #[test]
     fn errors_are_one_line_and_named() {
         let ok = spec(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0);
         let err = |s: CameraSpec, w: u32, h: u32| Camera::new(&s, w, h).unwrap_err().to_string();
@@ -254,7 +299,7 @@ mod tests {
         assert!(err(ok, 0, 3).contains("0×3"));
         let far = err(CameraSpec { eye: Vec3::new(0.0, 1.0, 5e18), ..ok }, 1, 1);
         assert!(far.starts_with("camera: eye [0, 1, 5e18] lies beyond ±1e9"), "{far}");
-        let wide = CameraSpec { lens: Lens { aperture: 1e30, focus_distance: 0.0 }, ..ok };
+        let wide = CameraSpec { lens: Lens { aperture: 1e30, ..Lens::PINHOLE }, ..ok };
         assert!(err(wide, 1, 1).starts_with("camera: aperture 1e30 is beyond ±1e9"));
         for e in [err(ok, 3, 0), err(CameraSpec { target: Vec3::Z, ..ok }, 1, 1)] {
             assert!(e.starts_with("camera: ") && !e.contains('\n'), "{e}");

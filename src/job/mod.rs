@@ -582,12 +582,19 @@ impl fmt::Display for Summary<'_> {
 
 /// The image settings `[width, height, spp, depth]` (`None` keeps the scene's) applied to
 /// `image` of the scene at `path`, checked as the scene file's own are
-/// ([`crate::scene::load::file::image_problem`]).
+/// ([`crate::scene::load::file::image_problem`]). A width without a height keeps the scene's
+/// aspect ratio (a glTF camera's `aspectRatio`): `height = round(width · H / W)`, at least 1.
 pub fn override_image(
     path: &Path,
     image: &mut ImageSpec,
     [width, height, spp, depth]: [Option<u32>; 4],
 ) -> anyhow::Result<()> {
+    if let (Some(w), None) = (width, height) {
+        if image.width > 0 {
+            let h = (w as f64 * image.height as f64 / image.width as f64).round();
+            image.height = h.clamp(1.0, u32::MAX as f64) as u32;
+        }
+    }
     image.width = width.unwrap_or(image.width);
     image.height = height.unwrap_or(image.height);
     image.spp = spp.unwrap_or(image.spp);

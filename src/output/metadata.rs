@@ -167,10 +167,18 @@ pub fn camera_matrices(camera: &Camera) -> ([f32; 16], [f32; 16]) {
         to_camera[4 * i + 1] = cy[i] as f32;
         to_camera[4 * i + 2] = cz[i] as f32;
         to_camera[4 * i + 3] = if i == 3 { 1.0 } else { 0.0 };
-        to_ndc[4 * i] = (a * cx[i] + bx * cz[i]) as f32;
-        to_ndc[4 * i + 1] = (c * cy[i] + by * cz[i]) as f32;
-        to_ndc[4 * i + 2] = if i == 3 { 1.0 } else { 0.0 };
-        to_ndc[4 * i + 3] = cz[i] as f32;
+        let one = if i == 3 { 1.0 } else { 0.0 };
+        if camera.is_orthographic() {
+            // No division: X = (x − l)/(r − l), Y = (y − t)/(b − t), Z = W = 1.
+            to_ndc[4 * i] = (a * cx[i] + bx * one) as f32;
+            to_ndc[4 * i + 1] = (c * cy[i] + by * one) as f32;
+            to_ndc[4 * i + 3] = one as f32;
+        } else {
+            to_ndc[4 * i] = (a * cx[i] + bx * cz[i]) as f32;
+            to_ndc[4 * i + 1] = (c * cy[i] + by * cz[i]) as f32;
+            to_ndc[4 * i + 3] = cz[i] as f32;
+        }
+        to_ndc[4 * i + 2] = one as f32;
     }
     (to_camera, to_ndc)
 }

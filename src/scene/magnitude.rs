@@ -144,7 +144,11 @@ pub fn check(path: &Path, scene: &Scene) -> Result<(), SceneError> {
 pub fn camera_problem(camera: &CameraSpec) -> Option<(&'static str, String)> {
     let lens = &camera.lens;
     let points = [("eye", camera.eye), ("target", camera.target)];
-    let lengths = [("aperture", lens.aperture), ("focus_distance", lens.focus_distance)];
+    let lengths = [
+        ("aperture", lens.aperture),
+        ("focus_distance", lens.focus_distance),
+        ("ortho_half_height", lens.ortho_half_height),
+    ];
     points.into_iter().find_map(|(field, p)| point_beyond(field, p).map(|m| (field, m))).or_else(|| {
         lengths.into_iter().find_map(|(field, x)| {
             beyond(x.abs() as f64).then(|| (field, format!("{field} {} is {RANGE}", num(x as f64))))

@@ -40,6 +40,8 @@ pub struct CameraSpec {
 
 /// A thin lens (see [`crate::camera`]): the radius of its aperture and the distance, along the
 /// view direction, of the plane it keeps in focus. An aperture of 0 is the lecture's pinhole.
+/// An orthographic camera (glTF's) has no lens: parallel rays from an image plane of
+/// half-height `ortho_half_height` (glTF `ymag`) through the eye.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Lens {
     /// Radius of the aperture, metres; 0 for a pinhole.
@@ -47,11 +49,13 @@ pub struct Lens {
     /// Distance of the plane in focus from the eye along the view direction, metres; 0 for
     /// the distance from the eye to the target.
     pub focus_distance: f32,
+    /// Half the height of an orthographic camera's view, metres; 0 for a perspective camera.
+    pub ortho_half_height: f32,
 }
 
 impl Lens {
     /// The lecture's pinhole: everything in focus.
-    pub const PINHOLE: Lens = Lens { aperture: 0.0, focus_distance: 0.0 };
+    pub const PINHOLE: Lens = Lens { aperture: 0.0, focus_distance: 0.0, ortho_half_height: 0.0 };
 }
 
 impl Default for CameraSpec {

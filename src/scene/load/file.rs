@@ -571,6 +571,7 @@ impl CameraFile {
             lens: Lens {
                 aperture: self.lens_value(&self.aperture, "aperture", 0.0)?,
                 focus_distance: self.lens_value(&self.focus_distance, "focus_distance", f64::MIN_POSITIVE)?,
+                ..Lens::PINHOLE
             },
         };
         if let Some((field, message)) = camera_problem(&spec) {

@@ -4,27 +4,30 @@
 //! [`load_gltf`] reads the default scene (else scene 0) into strahl's terms; the mapping is
 //! written down in `docs/scene-format.md` ("glTF files"):
 //! - **Meshes**: each glTF mesh becomes one [`Mesh`] in its own (object) space, its
-//!   triangle-mode primitives merged (a material per triangle when they differ); other modes
-//!   are skipped with a warning naming the primitive. Indexed and non-indexed primitives,
-//!   `NORMAL`, `TEXCOORD_0` (its `v` turned into strahl's bottom-left convention, `1 − v`) and
-//!   `COLOR_0` (RGB; alpha ignored).
+//!   primitives of modes triangles, strips and fans merged ([`gltf_modes`]; a material per
+//!   triangle when they differ); other modes are skipped with a warning naming the primitive.
+//!   Indexed and non-indexed primitives, sparse accessors ([`gltf_sparse`]), morph targets at
+//!   their default weights ([`gltf_morph`]), `NORMAL`, `TEXCOORD_0` (its `v` turned into
+//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB; alpha ignored).
 //! - **Nodes**: the node hierarchy with TRS or matrix transforms, composed in f64; each node
-//!   with a mesh is a [`MeshNode`] (the mesh and the node's object-to-world transform), so a
-//!   mesh used by several nodes is stored once.
-//! - **Cameras** (perspective: `yfov`, optional `aspectRatio`), looking along the node's −z
-//!   with +y up, and **lights** (`KHR_lights_punctual`) in world space. Photometric units are
-//!   read as strahl's radiometric ones, one for one: a point light's candela as W/sr, a
-//!   directional light's lux as W/m² (the 683 lm/W of photopic vision is *not* applied, so a
-//!   glTF light of intensity `I` renders like a TOML light of intensity `I`). Spot lights
-//!   become point lights (their cone is ignored, with a warning); `range` is ignored.
+//!   with a mesh is a [`MeshNode`] (the mesh and the node's object-to-world transform), one
+//!   per instance of `EXT_mesh_gpu_instancing` ([`gltf_instancing`]), so a mesh used by
+//!   several nodes or instances is stored once.
+//! - **Cameras** (perspective: `yfov`, optional `aspectRatio`; orthographic: `xmag`, `ymag`),
+//!   looking along the node's −z with +y up, and **lights** (`KHR_lights_punctual`) in world
+//!   space. Photometric units are read as strahl's radiometric ones, one for one: a point
+//!   light's candela as W/sr, a directional light's lux as W/m² (the 683 lm/W of photopic
+//!   vision is *not* applied, so a glTF light of intensity `I` renders like a TOML light of
+//!   intensity `I`). Spot lights become point lights (their cone is ignored, with a warning);
+//!   `range` is ignored.
 //! - **Materials**: see [`material_of`].
 //!
 //! Everything is checked before use, so bad input is a one-line error naming the file and the
-//! glTF element (`accessor 3`), never a panic: the crate's validation (indices into arrays,
-//! required fields, `extensionsRequired` that strahl does not support), then here every
-//! accessor's bytes against its buffer view and buffer, its component type and dimensions
-//! against what the attribute needs (the crate's readers assume them), and vertex indices
-//! against the vertex count.
+//! glTF element (`accessor 3`), never a panic: the version and extensions the file asks for
+//! ([`read_extensions`], naming what is missing), the crate's validation (indices into arrays,
+//! required fields), then here every accessor's bytes against its buffer view and buffer, its
+//! component type and dimensions against what the attribute needs (the crate's readers assume
+//! them), and vertex indices against the vertex count.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -35,6 +38,11 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
 use super::MeshError;
+use super::gltf_extensions::{Instancing, read_extensions};
+use super::gltf_instancing;
+use super::gltf_modes;
+use super::gltf_morph::{self, MeshSlots};
+use super::gltf_sparse;
 use crate::light::Light;
 use crate::material::{Material, Texture};
 use crate::math::{Vec2, Vec3};
@@ -48,10 +56,12 @@ pub struct MeshNode {
     /// The glTF node's index.
     pub node: usize,
     pub mesh: usize,
+    /// The instance's index in the node's `EXT_mesh_gpu_instancing` accessors, if it has them.
+    pub instance: Option<usize>,
     pub transform: Transform,
 }
 
-/// A perspective camera placed by a node.
+/// A camera (perspective or orthographic) placed by a node.
 #[derive(Clone, Debug)]
 pub struct GltfCamera {
     /// The glTF camera's index (in the file's `cameras`).
@@ -151,8 +161,11 @@ fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
 pub fn parse_gltf(path: &Path, bytes: Vec<u8>) -> Result<GltfFile, MeshError> {
     let err = |problem: String| MeshError::Invalid { path: path.to_owned(), problem };
     check_glb_length(&bytes).map_err(err)?;
+    let extensions = read_extensions(&bytes).map_err(err)?;
     check_position_accessors(&bytes).map_err(err)?;
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(gltf_error(&e)))?;
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(gltf_error(&e)))?;
+    validate(&document).map_err(|e| err(gltf_error(&e)))?;
     drop(bytes);
     if let Some(mesh) = document.meshes().find(|m| m.primitives().len() == 0) {
         return Err(err(format!("mesh {}: has no primitives (glTF asks for at least one)", mesh.index())));
@@ -161,22 +174,41 @@ pub fn parse_gltf(path: &Path, bytes: Vec<u8>) -> Result<GltfFile, MeshError> {
     let Some(scene) = scene else {
         return Err(err("the file has no scene".into()));
     };
-    let hierarchy = check_hierarchy(&document, &scene).map_err(err)?;
+    let mut hierarchy = check_hierarchy(&document, &scene).map_err(err)?;
+    let instances = gltf_instancing::declared_placements(&document, &extensions.instancing).map_err(err)?;
+    hierarchy.placements = hierarchy.placements.saturating_add(instances);
     check_budget(&document, &hierarchy).map_err(err)?;
     let base = path.parent().unwrap_or(Path::new(""));
-    let mut out = GltfFile::default();
+    let mut out = GltfFile { warnings: extensions.warnings, ..GltfFile::default() };
     let buffers = read_buffers(&document, base, blob, &mut out.files).map_err(err)?;
-    let mut reader = Reader { doc: &document, buffers: &buffers, base, images: HashMap::new(), out };
+    let instancing = &extensions.instancing;
+    let mut reader = Reader { doc: &document, buffers: &buffers, base, images: HashMap::new(), out, instancing };
     reader.materials().map_err(err)?;
-    let mut meshes: Vec<Option<Mesh>> = vec![None; document.meshes().len()];
+    let mut meshes = MeshSlots::new(document.meshes().len());
     for node in scene.nodes() {
         reader.node(&node, &Transform::default(), &mut meshes).map_err(err)?;
     }
     let mut out = reader.out;
-    out.meshes = meshes.into_iter().map(Option::unwrap_or_default).collect();
+    out.meshes = meshes.meshes.into_iter().map(Option::unwrap_or_default).collect();
     let file = path.display().to_string();
     out.warnings.iter_mut().for_each(|w| *w = format!("{file}: {w}"));
     Ok(out)
+}
+
+/// The `gltf` crate's validation of the whole document, less its check of
+/// `extensionsRequired`, which [`read_extensions`] made (naming the extensions, and knowing
+/// those strahl reads itself).
+fn validate(document: &gltf::Document) -> Result<(), gltf::Error> {
+    use gltf::json::validation::Validate;
+    let root = document.as_json();
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        let path = path();
+        if !path.as_str().starts_with("extensionsRequired") {
+            errors.push((path, error));
+        }
+    });
+    if errors.is_empty() { Ok(()) } else { Err(gltf::Error::Validation(errors)) }
 }
 
 /// A GLB's header (magic `glTF`, version, length) must give the length of the file itself:
@@ -261,7 +293,16 @@ fn check_budget(doc: &gltf::Document, hierarchy: &Hierarchy) -> Result<(), Strin
             let n = primitive.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
             vertices = vertices.saturating_add(n);
             let corners = primitive.indices().map_or(n, |a| a.count() as u64);
-            triangles = triangles.saturating_add(corners / 3);
+            triangles = triangles.saturating_add(gltf_modes::triangle_count(primitive.mode(), corners));
+        }
+    }
+    // A node whose morph weights differ from its mesh's may build another copy of the mesh.
+    for node in doc.nodes().filter(|n| n.weights().is_some()) {
+        for primitive in node.mesh().iter().flat_map(|m| m.primitives()) {
+            let n = primitive.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
+            vertices = vertices.saturating_add(n);
+            let corners = primitive.indices().map_or(n, |a| a.count() as u64);
+            triangles = triangles.saturating_add(gltf_modes::triangle_count(primitive.mode(), corners));
         }
     }
     let bytes = vertices
@@ -405,6 +446,8 @@ struct Reader<'a> {
     /// image names the same source.
     images: HashMap<String, Arc<Image>>,
     out: GltfFile,
+    /// `EXT_mesh_gpu_instancing` by node index.
+    instancing: &'a HashMap<usize, Instancing>,
 }
 
 /// The material of primitives that name none: strahl's default grey (glTF's own default, a
@@ -618,8 +661,12 @@ impl Reader<'_> {
                 a.data_type()
             ));
         }
-        if a.sparse().is_some() {
-            return Err(format!("{name} ({what}): sparse accessors are not supported"));
+        if let Some(sparse) = a.sparse() {
+            let named = format!("{name} ({what})");
+            gltf_sparse::check_sparse(a, &sparse, |v| self.view_bytes(v), &named)?;
+            if a.view().is_none() {
+                return Ok(()); // zeros, then the sparse values
+            }
         }
         let Some(view) = a.view() else {
             return Err(format!("{name} ({what}): has no bufferView (all-zero accessors are not supported)"));
@@ -647,7 +694,7 @@ impl Reader<'_> {
     }
 
     /// Places `node` and its children (a forest, [`check_hierarchy`] made sure).
-    fn node(&mut self, node: &gltf::Node, parent: &Transform, meshes: &mut [Option<Mesh>]) -> Result<(), String> {
+    fn node(&mut self, node: &gltf::Node, parent: &Transform, meshes: &mut MeshSlots) -> Result<(), String> {
         let what = format!("node {}", node.index());
         let local = match node.transform() {
             gltf::scene::Transform::Matrix { matrix } => DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from))),
@@ -671,12 +718,13 @@ impl Reader<'_> {
         };
         let world = local.then(parent);
         if let Some(mesh) = node.mesh() {
-            let index = mesh.index();
-            if meshes[index].is_none() {
-                meshes[index] = Some(self.mesh(&mesh)?);
+            let weights = gltf_morph::weights(node, &mesh);
+            let index = meshes.slot(mesh.index(), weights, mesh.weights().unwrap_or(&[]));
+            if meshes.meshes[index].is_none() {
+                meshes.meshes[index] = Some(self.mesh(&mesh, weights)?);
             }
-            if meshes[index].as_ref().is_some_and(|m| !m.indices.is_empty()) {
-                self.out.nodes.push(MeshNode { node: node.index(), mesh: index, transform: world });
+            if meshes.meshes[index].as_ref().is_some_and(|m| !m.indices.is_empty()) {
+                self.place(node, index, &world)?;
             }
         }
         if let Some(camera) = node.camera() {
@@ -691,29 +739,60 @@ impl Reader<'_> {
         Ok(())
     }
 
-    fn camera(&mut self, camera: &gltf::Camera, node: &gltf::Node, world: &Transform) {
-        let gltf::camera::Projection::Perspective(p) = camera.projection() else {
-            self.warn(format!("camera {}: orthographic cameras are not supported; skipped", camera.index()));
-            return;
+    /// Places mesh slot `mesh` by `node`: once, or once per `EXT_mesh_gpu_instancing` instance.
+    fn place(&mut self, node: &gltf::Node, mesh: usize, world: &Transform) -> Result<(), String> {
+        let Some(inst) = self.instancing.get(&node.index()) else {
+            self.out.nodes.push(MeshNode { node: node.index(), mesh, instance: None, transform: *world });
+            return Ok(());
         };
+        let check =
+            |a: &gltf::Accessor, t: &[DataType], d: &[Dimensions], what: &str| self.check_accessor(a, t, d, what);
+        let (placed, skipped) =
+            gltf_instancing::instance_transforms(self.doc, self.buffers, node.index(), inst, check)?;
+        for (k, t) in placed {
+            self.out.nodes.push(MeshNode { node: node.index(), mesh, instance: Some(k), transform: t.then(world) });
+        }
+        if skipped > 0 {
+            self.warn(format!(
+                "node {}: EXT_mesh_gpu_instancing: {skipped} instances with a singular transform skipped",
+                node.index()
+            ));
+        }
+        Ok(())
+    }
+
+    /// A perspective camera (`yfov`, `aspectRatio`) or an orthographic one (`ymag` the half
+    /// height of its view, `xmag / ymag` its aspect ratio), at the node's origin looking along
+    /// its −z with +y up.
+    fn camera(&mut self, camera: &gltf::Camera, node: &gltf::Node, world: &Transform) {
         let eye = world.point_f64(DVec3::ZERO);
         let forward = world.vector_f64(-DVec3::Z).normalize();
         let up = world.vector_f64(DVec3::Y).normalize();
-        let spec = CameraSpec {
+        let mut spec = CameraSpec {
             eye: eye.as_vec3(),
             target: (eye + forward).as_vec3(),
             up: up.as_vec3(),
-            fov_deg: p.yfov().to_degrees(),
+            fov_deg: CameraSpec::default().fov_deg,
             lens: Default::default(),
         };
+        let aspect_ratio = match camera.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                spec.fov_deg = p.yfov().to_degrees();
+                p.aspect_ratio()
+            }
+            gltf::camera::Projection::Orthographic(o) => {
+                let (xmag, ymag) = (o.xmag(), o.ymag());
+                if !(xmag.is_finite() && ymag.is_finite() && xmag != 0.0 && ymag != 0.0) {
+                    let what = format!("camera {}: orthographic xmag {xmag}, ymag {ymag}", camera.index());
+                    self.warn(format!("{what} are not finite and non-zero; skipped"));
+                    return;
+                }
+                spec.lens.ortho_half_height = ymag.abs();
+                Some(xmag.abs() / ymag.abs())
+            }
+        };
         let (name, node_name) = (camera.name().map(str::to_string), node.name().map(str::to_string));
-        self.out.cameras.push(GltfCamera {
-            index: camera.index(),
-            name,
-            node_name,
-            spec,
-            aspect_ratio: p.aspect_ratio(),
-        });
+        self.out.cameras.push(GltfCamera { index: camera.index(), name, node_name, spec, aspect_ratio });
     }
 
     fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: &Transform, what: &str) -> Result<(), String> {
@@ -741,8 +820,9 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// Glue all triangle primitives of `mesh` into one strahl mesh.
-    fn mesh(&mut self, mesh: &gltf::Mesh) -> Result<Mesh, String> {
+    /// Glue all triangle primitives of `mesh` (triangles, strips and fans), morphed by
+    /// `weights`, into one strahl mesh.
+    fn mesh(&mut self, mesh: &gltf::Mesh, weights: &[f32]) -> Result<Mesh, String> {
         let mut out = Mesh {
             name: mesh.name().map_or_else(|| format!("mesh {}", mesh.index()), str::to_string),
             ..Mesh::default()
@@ -752,7 +832,7 @@ impl Reader<'_> {
         let mut materials = Vec::new();
         for primitive in mesh.primitives() {
             let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
-            if primitive.mode() != Mode::Triangles {
+            if !matches!(primitive.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
                 self.warn(format!("{what}: mode {:?} is not triangles; skipped", primitive.mode()));
                 continue;
             }
@@ -765,15 +845,21 @@ impl Reader<'_> {
             let buffers = self.buffers;
             let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
             let first = out.positions.len();
-            let p: Vec<Vec3> = reader.read_positions().into_iter().flatten().map(Vec3::from).collect();
+            let mut p: Vec<Vec3> = reader.read_positions().into_iter().flatten().map(Vec3::from).collect();
             let n = p.len();
+            let check = |a: &gltf::Accessor, t: &[DataType], d: &[Dimensions], name: &str| {
+                self.check_accessor(a, t, d, &format!("{what} {name}"))
+            };
+            gltf_morph::displace(&primitive, self.buffers, weights, gltf_morph::Attribute::Position, &mut p, check)?;
             out.positions.extend(p);
             if let Some(a) = primitive.get(&gltf::Semantic::Normals) {
                 self.check_accessor(&a, f32v3.0, f32v3.1, &format!("{what} NORMAL"))?;
                 if a.count() != n {
                     return Err(format!("{what}: NORMAL has {} elements for {n} positions", a.count()));
                 }
-                normals.extend(reader.read_normals().into_iter().flatten().map(|v| Vec3::from(v).normalize_or_zero()));
+                let mut v: Vec<Vec3> = reader.read_normals().into_iter().flatten().map(Vec3::from).collect();
+                gltf_morph::displace(&primitive, self.buffers, weights, gltf_morph::Attribute::Normal, &mut v, check)?;
+                normals.extend(v.into_iter().map(Vec3::normalize_or_zero));
                 any_normals = true;
             } else {
                 normals.extend(std::iter::repeat_n(Vec3::ZERO, n));
@@ -808,7 +894,7 @@ impl Reader<'_> {
                 uvs.extend(std::iter::repeat_n(Vec2::ZERO, n));
             }
             let triangles_before = out.indices.len();
-            match primitive.indices() {
+            let corners: Vec<u32> = match primitive.indices() {
                 Some(a) => {
                     self.check_accessor(
                         &a,
@@ -816,13 +902,6 @@ impl Reader<'_> {
                         &[Dimensions::Scalar],
                         &format!("{what} indices"),
                     )?;
-                    if a.count() % 3 != 0 {
-                        return Err(format!(
-                            "accessor {} ({what} indices): {} indices are not whole triangles",
-                            a.index(),
-                            a.count()
-                        ));
-                    }
                     let idx: Vec<u32> = reader.read_indices().into_iter().flat_map(|i| i.into_u32()).collect();
                     if let Some(bad) = idx.iter().position(|&i| i as usize >= n) {
                         return Err(format!(
@@ -831,16 +910,22 @@ impl Reader<'_> {
                             idx[bad]
                         ));
                     }
-                    let base = first as u32;
-                    out.indices.extend(idx.chunks_exact(3).map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+                    idx
                 }
-                None => {
-                    if n % 3 != 0 {
-                        return Err(format!("{what}: {n} vertices without indices are not whole triangles"));
-                    }
-                    out.indices.extend((first..first + n).step_by(3).map(|i| [i as u32, i as u32 + 1, i as u32 + 2]));
-                }
-            }
+                None => (0..n as u32).collect(),
+            };
+            let Some(triangles) = gltf_modes::triangles(primitive.mode(), &corners) else {
+                return Err(match primitive.indices() {
+                    Some(a) => format!(
+                        "accessor {} ({what} indices): {} indices are not whole triangles",
+                        a.index(),
+                        corners.len()
+                    ),
+                    None => format!("{what}: {n} vertices without indices are not whole triangles"),
+                });
+            };
+            let base = first as u32;
+            out.indices.extend(triangles.into_iter().map(|t| t.map(|i| i + base)));
             let material = primitive.material().index().map_or(u32::MAX, |i| i as u32);
             materials.extend(std::iter::repeat_n(material, out.indices.len() - triangles_before));
         }

@@ -72,7 +72,10 @@ pub fn add_gltf(
                 scene.prototypes.push(with_materials(file.meshes[node.mesh].clone()));
                 scene.prototypes.len() as u32 - 1
             });
-            let name = format!("{file_name} node {}", node.node);
+            let name = match node.instance {
+                Some(k) => format!("{file_name} node {} instance {k}", node.node),
+                None => format!("{file_name} node {}", node.node),
+            };
             scene.instances.push(Instance { name, prototype, transform: world, material: None });
             placements.push((prototype, node.transform));
         } else {
@@ -127,7 +130,7 @@ fn find_camera<'a>(cameras: &'a [GltfCamera], wanted: &str) -> Result<&'a GltfCa
         return Ok(camera);
     }
     if cameras.is_empty() {
-        return Err(format!("--camera {wanted:?}: the file has no perspective camera"));
+        return Err(format!("--camera {wanted:?}: the file has no camera"));
     }
     let describe = |c: &GltfCamera| {
         let mut words = vec![format!("index {}", c.index)];
@@ -168,7 +171,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
         }
         None => {
             scene.camera = CameraSpec::framing(scene.bounds(), CameraSpec::default().fov_deg);
-            warnings.push(format!("{}: has no perspective camera; framing the scene from +z", path.display()));
+            warnings.push(format!("{}: has no camera; framing the scene from +z", path.display()));
         }
     }
     if scene.lights.is_empty() && !emits(&scene) {

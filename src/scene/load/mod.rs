@@ -5,7 +5,12 @@
 
 pub mod file;
 pub mod gltf;
+pub mod gltf_extensions;
+pub mod gltf_instancing;
+pub mod gltf_modes;
+pub mod gltf_morph;
 pub mod gltf_scene;
+pub mod gltf_sparse;
 pub mod mesh;
 pub mod obj;
 pub mod ply;
