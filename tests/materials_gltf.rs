@@ -196,3 +196,30 @@ fn the_metallic_roughness_texture_gives_metalness_in_blue_and_roughness_in_green
         assert!((g - 0.5).abs() < 1e-5, "channel {c}: {g}");
     }
 }
+
+#[test]
+fn khr_texture_transform_offsets_scales_and_rotates_the_texture_coordinates() {
+    let dir = TempDir::new("materials-transform");
+    let Some(assets) = assets(&dir) else { return };
+    let base_at = |file: &str, q: usize| {
+        let scene = strahl::scene::from_gltf_file(&assets.join(file), None).unwrap().scene;
+        let pbr = scene.materials.iter().find_map(|m| m.pbr.clone()).expect("a PBR material");
+        // The quad's quadrant centres in strahl's texture coordinates (bottom-left origin).
+        let (x, y) = CENTRES[q];
+        let uv = glam::Vec2::new((x as f32 + 1.0) / 2.0, (y as f32 + 1.0) / 2.0);
+        pbr.base_color_at([uv, uv], glam::Vec3::ONE).to_array().map(f64::from)
+    };
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-6);
+    // Offset (0.5, 0), scale 0.5: the image's top-right quadrant everywhere.
+    for q in 0..4 {
+        let got = base_at("transform_offset_scale.gltf", q);
+        assert!(close(got, texel(1)), "quadrant {q}: {got:?}");
+    }
+    // Offset (1, 0), rotation π/2: glTF (u, v) → (1 − v, u); the quad's top-left quadrant
+    // (u, v = ¼, ¼) shows the image's top-right (¾, ¼), its top-right (¾, ¼) the bottom-right
+    // (¾, ¾), its bottom-left (¼, ¾) the top-left (¼, ¼), its bottom-right the bottom-left.
+    for (q, image_q) in [(0, 1), (1, 3), (2, 0), (3, 2)] {
+        let got = base_at("transform_rotation.gltf", q);
+        assert!(close(got, texel(image_q)), "quadrant {q}: {got:?} vs {:?}", texel(image_q));
+    }
+}

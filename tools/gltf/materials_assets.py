@@ -19,10 +19,14 @@ QUADRANTS below (top-left, top-right, bottom-left, bottom-right), embedded as a 
 - metal_roughness_texture.gltf: base colour 0.5, metallic factor 1, roughness factor 1, a
   metallicRoughnessTexture (linear) whose quadrants give (G roughness, B metalness) =
   MR_QUADRANTS: a rough dielectric, a smooth metal, a rough metal, a smooth half metal.
+- transform_offset_scale.gltf, transform_rotation.gltf: a baseColorTexture with
+  KHR_texture_transform offset (0.5, 0) and scale 0.5 (the image's top-right quadrant over the
+  whole quad), or offset (1, 0) and rotation pi/2 (u' = 1 - v, v' = u in glTF's coordinates).
 """
 
 import base64
 import json
+import math
 import os
 import struct
 import sys
@@ -155,6 +159,17 @@ def main(out):
         )
     )
     quad(mr, [MR_QUADRANTS]).save(os.path.join(out, "metal_roughness_texture.gltf"))
+
+    for name, transform in [
+        ("transform_offset_scale.gltf", {"offset": [0.5, 0], "scale": [0.5, 0.5]}),
+        ("transform_rotation.gltf", {"offset": [1, 0], "rotation": math.pi / 2}),
+    ]:
+        info = g.TextureInfo(index=0, extensions={"KHR_texture_transform": transform})
+        m = g.Material(
+            doubleSided=True,
+            pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorTexture=info, metallicFactor=0, roughnessFactor=1),
+        )
+        quad(m, [QUADRANTS], extensions_used=["KHR_texture_transform"]).save(os.path.join(out, name))
 
     json.dump(
         {"quadrants": QUADRANTS, "base": BASE, "vertex_color": VERTEX_COLOR, "emissive": EMISSIVE, "strength": STRENGTH},

@@ -466,14 +466,23 @@ impl Reader<'_> {
             ..Pbr::default()
         };
         if let Some(info) = pbr.base_color_texture() {
-            out.base_color_texture = Some(self.texture(&info.texture(), info.tex_coord(), Encoding::Srgb, what)?);
+            let slot =
+                self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
+            out.base_color_texture = Some(slot);
         }
         if let Some(info) = pbr.metallic_roughness_texture() {
-            out.metallic_roughness_texture =
-                Some(self.texture(&info.texture(), info.tex_coord(), Encoding::Linear, what)?);
+            out.metallic_roughness_texture = Some(self.texture(
+                &info.texture(),
+                info.tex_coord(),
+                info.texture_transform(),
+                Encoding::Linear,
+                what,
+            )?);
         }
         if let Some(info) = material.emissive_texture() {
-            out.emissive_texture = Some(self.texture(&info.texture(), info.tex_coord(), Encoding::Srgb, what)?);
+            let slot =
+                self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
+            out.emissive_texture = Some(slot);
         }
         if material.normal_texture().is_some() {
             self.warn(format!("{what}: normalTexture ignored (the interpolated normals are used)"));
@@ -545,14 +554,36 @@ impl Reader<'_> {
     }
 
     /// A material's texture: its image (decoded once per file and encoding) with its sampler's
-    /// wrap modes, the texture coordinate set it reads.
+    /// wrap modes, the texture coordinate set it reads, and its `KHR_texture_transform`:
+    /// `uv' = T(offset) · R(rotation) · S(scale) · uv` in glTF's coordinates, with the
+    /// extension's GLSL rotation `mat3(cos, sin, 0, −sin, cos, 0, 0, 0, 1)` (column-major), so
+    ///
+    /// ```text
+    /// u' = cos·s_u·u − sin·s_v·v + o_u
+    /// v' = sin·s_u·u + cos·s_v·v + o_v
+    /// ```
+    ///
+    /// and its `texCoord`, when given, in place of the texture's.
     fn texture(
         &mut self,
         texture: &gltf::Texture,
         tex_coord: u32,
+        transform: Option<gltf::texture::TextureTransform>,
         encoding: Encoding,
         what: &str,
     ) -> Result<TextureSlot, String> {
+        let tex_coord = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(tex_coord);
+        let matrix = transform.map(|t| {
+            let ([ou, ov], [su, sv], r) = (t.offset(), t.scale(), t.rotation());
+            let (sin, cos) = r.sin_cos();
+            [[cos * su, -sin * sv, ou], [sin * su, cos * sv, ov]]
+        });
+        if matrix.is_some_and(|m| !m.iter().flatten().all(|x| x.is_finite())) {
+            return Err(format!(
+                "{what}: texture {}: KHR_texture_transform has a value that is not finite",
+                texture.index()
+            ));
+        }
         if tex_coord != 0 {
             self.warn(format!("{what}: texture {} uses TEXCOORD_{tex_coord}; TEXCOORD_0 is used", texture.index()));
         }
@@ -578,12 +609,13 @@ impl Reader<'_> {
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         };
         let sampler = texture.sampler();
-        Ok(TextureSlot::plain(ImageTexture {
+        let texture = ImageTexture {
             image: decoded,
             wrap_u: wrap(sampler.wrap_s()),
             wrap_v: wrap(sampler.wrap_t()),
             factor: Vec3::ONE,
-        }))
+        };
+        Ok(TextureSlot { texture, tex_coord, transform: matrix })
     }
 
     fn image(&mut self, image: &gltf::Image, encoding: Encoding) -> Result<Arc<Image>, String> {
