@@ -25,6 +25,7 @@ pub mod output;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod shading;
 pub mod surface;
 pub mod sys;
 pub mod texture;

@@ -1,10 +1,17 @@
-//! Surface materials for Whitted shading: a diffuse albedo (constant or Whitted's 1980
-//! checkerboard), a normalised Blinn–Phong highlight, an ideal mirror, a dielectric
-//! (Snell + Fresnel) and emission. All reflectances are in [0, 1] per channel.
+//! Surface materials: the lecture material (a diffuse albedo, constant or Whitted's 1980
+//! checkerboard, a normalised Blinn–Phong highlight, an ideal mirror, a dielectric (Snell +
+//! Fresnel) and emission; all reflectances in [0, 1] per channel), and, for glTF materials and
+//! TOML's `base_color`/`metallic`/`roughness` keys, the glTF metallic-roughness material
+//! ([`Pbr`]) beside it.
 //!
-//! The formulas themselves live in [`crate::optics`]; this module holds the parameters and
-//! evaluates the texture (image textures: [`crate::texture`]).
+//! The path tracer shades a material with a [`Pbr`] part by `bsdf::gltf` and the others by
+//! `bsdf::lecture` ([`crate::shading`]). The Whitted integrator shades the lecture fields
+//! alone: a PBR material carries its closest lecture form there too ([`Pbr::lecture_form`]).
+//!
+//! The lecture formulas live in [`crate::optics`]; this module holds the parameters and
+//! evaluates the textures (image textures: [`crate::texture`]).
 
+use crate::bsdf::PbrParams;
 use crate::math::{Vec2, Vec3};
 use crate::texture::ImageTexture;
 
@@ -92,6 +99,9 @@ pub struct Material {
     /// Whether this is the material of an area light's visible geometry
     /// ([`crate::scene::emitters`]): that light is sampled as itself, never as a mesh light.
     pub area_light: bool,
+    /// The glTF metallic-roughness material the path tracer shades, when the material is one
+    /// (glTF, or TOML's PBR keys); the fields above are then its lecture form.
+    pub pbr: Option<Box<Pbr>>,
 }
 
 impl Default for Material {
@@ -108,6 +118,7 @@ impl Default for Material {
             emission: Vec3::ZERO,
             emission_one_sided: false,
             area_light: false,
+            pbr: None,
         }
     }
 }
@@ -140,6 +151,38 @@ impl Material {
         }
     }
 
+    /// Every image the material samples, in a fixed order: the diffuse texture's, then the
+    /// PBR part's base colour, metallic-roughness and emissive textures'.
+    pub fn images(&self) -> Vec<&std::sync::Arc<crate::texture::Image>> {
+        let mut images = Vec::new();
+        if let Texture::Image(t) = &self.diffuse {
+            images.push(&t.image);
+        }
+        if let Some(p) = &self.pbr {
+            for slot in p.slots().into_iter().flatten() {
+                images.push(&slot.texture.image);
+            }
+        }
+        images
+    }
+
+    /// A copy whose images keep their names and sizes but no texels (what a scene hash
+    /// prints; the texels are hashed as bytes).
+    pub fn without_texels(&self) -> Material {
+        let bare =
+            |t: &ImageTexture| ImageTexture { image: std::sync::Arc::new(t.image.without_texels()), ..t.clone() };
+        let mut m = self.clone();
+        if let Texture::Image(t) = &m.diffuse {
+            m.diffuse = Texture::Image(bare(t));
+        }
+        if let Some(p) = &mut m.pbr {
+            for slot in p.slots_mut().into_iter().flatten() {
+                slot.texture = bare(&slot.texture);
+            }
+        }
+        m
+    }
+
     /// Whether light passes through the surface (a dielectric).
     #[inline]
     pub fn is_dielectric(&self) -> bool {
@@ -162,6 +205,254 @@ impl Material {
             .or_else(|| {
                 (!(self.ior > 0.0 && self.ior.is_finite()))
                     .then(|| format!("ior {} must be a finite number > 0", self.ior))
+            })
+            .or_else(|| self.pbr.as_ref().and_then(|p| p.problem()))
+    }
+}
+
+/// Roughness at or below which a metallic (`metallic = 1`) material's lecture form is an ideal
+/// mirror.
+pub const MIRROR_ROUGHNESS: f32 = 0.1;
+
+/// Exponent of the Blinn–Phong lobe matching a glTF roughness `r`: with `α = r²`,
+/// `n = 2/α² − 2` (the usual Beckmann–Phong correspondence), at most 10⁴.
+pub fn shininess_of_roughness(roughness: f32) -> f32 {
+    let alpha = (roughness.clamp(0.0, 1.0) as f64).powi(2);
+    if alpha <= 0.0 { 1e4 } else { (2.0 / (alpha * alpha) - 2.0).clamp(0.0, 1e4) as f32 }
+}
+
+/// A texture a [`Pbr`] material samples: an image with its sampler's wrap modes (`factor` 1:
+/// the material's factors multiply it), the texture coordinate set it reads (`TEXCOORD_n`), and
+/// `KHR_texture_transform`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureSlot {
+    pub texture: ImageTexture,
+    /// `TEXCOORD_0` or `TEXCOORD_1`.
+    pub tex_coord: u32,
+    /// `KHR_texture_transform` as the affine map of glTF's coordinates (origin top-left):
+    /// `(u', v') = M·(u, v, 1)`, rows of `M` = `[[a, b, c], [d, e, f]]`.
+    pub transform: Option<[[f32; 3]; 2]>,
+}
+
+impl TextureSlot {
+    /// An image read at `TEXCOORD_0` without a transform.
+    pub fn plain(texture: ImageTexture) -> TextureSlot {
+        TextureSlot { texture, tex_coord: 0, transform: None }
+    }
+
+    /// The filtered texel at a hit whose texture coordinate sets are `uv` (strahl's bottom-left
+    /// convention, as [`crate::surface::SurfacePoint`] holds them).
+    pub fn at(&self, uv: [Vec2; 2]) -> Vec3 {
+        let uv = uv[(self.tex_coord as usize).min(1)];
+        let uv = match self.transform {
+            None => uv,
+            Some([r0, r1]) => {
+                let (u, v) = (uv.x, 1.0 - uv.y);
+                let (u2, v2) = (r0[0] * u + r0[1] * v + r0[2], r1[0] * u + r1[1] * v + r1[2]);
+                Vec2::new(u2, 1.0 - v2)
+            }
+        };
+        self.texture.lookup(uv)
+    }
+
+    /// The image's mean texel (for the lecture form).
+    fn mean(slot: &Option<TextureSlot>) -> Vec3 {
+        slot.as_ref().map_or(Vec3::ONE, |t| t.texture.image.mean())
+    }
+}
+
+/// The glTF 2.0 metallic-roughness material and the extensions strahl renders, as factors and
+/// the textures that multiply them (the specification's defaults in [`Default`]):
+///
+/// ```text
+/// base colour = base_color · baseColorTexture(uv) (sRGB-decoded) · COLOR_0
+/// metallic    = metallic  · metallicRoughnessTexture(uv).b     (linear)
+/// roughness   = roughness · metallicRoughnessTexture(uv).g     (linear)
+/// emission    = emission  · emissiveTexture(uv) (sRGB-decoded), emission = emissiveFactor · strength
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pbr {
+    /// `baseColorFactor` (RGB, linear).
+    pub base_color: Vec3,
+    pub base_color_texture: Option<TextureSlot>,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// Blue: metalness, green: roughness (linear).
+    pub metallic_roughness_texture: Option<TextureSlot>,
+    /// `emissiveFactor · KHR_materials_emissive_strength`, W/(m²·sr).
+    pub emission: Vec3,
+    pub emissive_texture: Option<TextureSlot>,
+    /// `KHR_materials_ior`.
+    pub ior: f32,
+    /// `KHR_materials_transmission`.
+    pub transmission: f32,
+    /// `KHR_materials_specular`.
+    pub specular: f32,
+    pub specular_color: Vec3,
+    /// `KHR_materials_clearcoat`.
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    /// `KHR_materials_sheen`.
+    pub sheen_color: Vec3,
+    pub sheen_roughness: f32,
+    /// `KHR_materials_volume`: `thicknessFactor` (0: thin-walled, no volume),
+    /// `attenuationColor` and `attenuationDistance` (infinite: no absorption).
+    pub thickness: f32,
+    pub attenuation_color: Vec3,
+    pub attenuation_distance: f32,
+    /// `KHR_materials_unlit`: the surface shows its base colour as emitted radiance and
+    /// scatters nothing.
+    pub unlit: bool,
+}
+
+impl Default for Pbr {
+    fn default() -> Self {
+        let p = PbrParams::default();
+        Pbr {
+            base_color: p.base_color,
+            base_color_texture: None,
+            metallic: p.metallic,
+            roughness: p.roughness,
+            metallic_roughness_texture: None,
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            ior: p.ior,
+            transmission: p.transmission,
+            specular: p.specular,
+            specular_color: p.specular_color,
+            clearcoat: p.clearcoat,
+            clearcoat_roughness: p.clearcoat_roughness,
+            sheen_color: p.sheen_color,
+            sheen_roughness: p.sheen_roughness,
+            thickness: 0.0,
+            attenuation_color: Vec3::ONE,
+            attenuation_distance: f32::INFINITY,
+            unlit: false,
+        }
+    }
+}
+
+impl Pbr {
+    /// The texture slots, in a fixed order.
+    pub fn slots(&self) -> [Option<&TextureSlot>; 3] {
+        [self.base_color_texture.as_ref(), self.metallic_roughness_texture.as_ref(), self.emissive_texture.as_ref()]
+    }
+
+    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 3] {
+        [self.base_color_texture.as_mut(), self.metallic_roughness_texture.as_mut(), self.emissive_texture.as_mut()]
+    }
+
+    /// The base colour at a hit: factor × texture × vertex colour `color`.
+    pub fn base_color_at(&self, uv: [Vec2; 2], color: Vec3) -> Vec3 {
+        let texture = self.base_color_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
+        self.base_color * texture * color
+    }
+
+    /// What `bsdf::gltf` takes at a hit with texture coordinates `uv` and vertex colour `color`.
+    pub fn params_at(&self, uv: [Vec2; 2], color: Vec3) -> PbrParams {
+        let mr = self.metallic_roughness_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
+        PbrParams {
+            base_color: self.base_color_at(uv, color),
+            metallic: self.metallic * mr.z,
+            roughness: self.roughness * mr.y,
+            ior: self.ior,
+            transmission: self.transmission,
+            specular: self.specular,
+            specular_color: self.specular_color,
+            clearcoat: self.clearcoat,
+            clearcoat_roughness: self.clearcoat_roughness,
+            sheen_color: self.sheen_color,
+            sheen_roughness: self.sheen_roughness,
+        }
+    }
+
+    /// The emitted radiance at a hit: `emission × emissiveTexture(uv)`.
+    pub fn emission_at(&self, uv: [Vec2; 2]) -> Vec3 {
+        self.emission * self.emissive_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv))
+    }
+
+    /// The absorption coefficient inside (`KHR_materials_volume`, Beer–Lambert):
+    /// `σ_a = −ln(attenuationColor) / attenuationDistance`, per unit of world length; `None`
+    /// for a thin-walled or non-absorbing material.
+    pub fn sigma_a(&self) -> Option<Vec3> {
+        let d = self.attenuation_distance;
+        if !(self.thickness > 0.0 && d > 0.0 && d.is_finite()) || self.attenuation_color == Vec3::ONE {
+            return None;
+        }
+        let c = self.attenuation_color.clamp(Vec3::splat(1e-30), Vec3::ONE);
+        Some(Vec3::new(-c.x.ln(), -c.y.ln(), -c.z.ln()) / d)
+    }
+
+    /// The lecture material closest to this one, which the Whitted integrator renders
+    /// (the table in `docs/scene-format.md`). Textures other than the base colour's enter by
+    /// their mean texel: `m = metallic · mean(B)`, `r = roughness · mean(G)`, emission
+    /// `emission · mean(emissiveTexture)`; `base` is `base_color · mean(baseColorTexture)`.
+    ///
+    /// - transmission `t > 0` → glass: `k_t = t·base`, `η = ior`, diffuse
+    ///   `(1 − t)(1 − m)·baseColor(uv)`;
+    /// - `m = 1` and `r ≤ 0.1` → an ideal mirror of reflectance `base`;
+    /// - otherwise Lambert `(1 − m)·baseColor(uv)` plus, for a partly metallic surface, a
+    ///   normalised Blinn–Phong highlight of weight `m·base` and exponent
+    ///   [`shininess_of_roughness`]. A dielectric's own 4 % specular reflection is left out, so
+    ///   a non-metal is exactly Lambertian.
+    /// - unlit: Lambert of the base colour (Whitted has no unlit surface).
+    pub fn lecture_form(&self, name: String) -> Material {
+        let mr = TextureSlot::mean(&self.metallic_roughness_texture);
+        let metallic = (self.metallic * mr.z).clamp(0.0, 1.0);
+        let roughness = self.roughness * mr.y;
+        let base = (self.base_color * TextureSlot::mean(&self.base_color_texture)).clamp(Vec3::ZERO, Vec3::ONE);
+        let diffuse = |k: f32| match &self.base_color_texture {
+            Some(t) => Texture::Image(ImageTexture { factor: self.base_color * k, ..t.texture.clone() }),
+            None => Texture::Constant(self.base_color * k),
+        };
+        let emission = self.emission * TextureSlot::mean(&self.emissive_texture);
+        let mut m = Material { name, emission, ior: self.ior, ..Material::default() };
+        if self.unlit {
+            m.diffuse = diffuse(1.0);
+            m.emission = Vec3::ZERO;
+        } else if self.transmission > 0.0 {
+            let t = self.transmission.min(1.0);
+            m.transmission = base * t;
+            m.diffuse = diffuse((1.0 - t) * (1.0 - metallic));
+        } else if metallic >= 1.0 && roughness <= MIRROR_ROUGHNESS {
+            m.diffuse = Texture::Constant(Vec3::ZERO);
+            m.mirror = base;
+        } else {
+            m.diffuse = diffuse(1.0 - metallic);
+            if metallic > 0.0 {
+                m.specular = metallic * base;
+                m.shininess = shininess_of_roughness(roughness);
+            }
+        }
+        m
+    }
+
+    /// Why this material cannot be rendered, if it cannot: a value that is not a finite
+    /// number, a negative colour.
+    pub fn problem(&self) -> Option<String> {
+        let numbers = [
+            ("metallic", self.metallic),
+            ("roughness", self.roughness),
+            ("ior", self.ior),
+            ("transmission", self.transmission),
+            ("specular", self.specular),
+            ("clearcoat", self.clearcoat),
+            ("clearcoat roughness", self.clearcoat_roughness),
+            ("sheen roughness", self.sheen_roughness),
+            ("thickness", self.thickness),
+        ];
+        numbers
+            .iter()
+            .find(|(_, x)| !(x.is_finite() && *x >= 0.0))
+            .map(|(what, x)| format!("{what} {x} must be a finite number ≥ 0"))
+            .or_else(|| bad_colour("base colour", self.base_color))
+            .or_else(|| bad_colour("emission", self.emission))
+            .or_else(|| bad_colour("specular colour", self.specular_color))
+            .or_else(|| bad_colour("sheen colour", self.sheen_color))
+            .or_else(|| bad_colour("attenuation colour", self.attenuation_color))
+            .or_else(|| {
+                (!(self.attenuation_distance > 0.0))
+                    .then(|| format!("attenuation distance {} must be > 0", self.attenuation_distance))
             })
     }
 }
@@ -192,6 +483,13 @@ mod tests {
             assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, y, 0.5), Vec3::Y, Vec2::ZERO), Vec3::ZERO, "y = {y}");
             assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, y, 0.5), Vec3::Y, Vec2::ZERO), Vec3::ONE, "y = {y}");
         }
+    }
+
+    #[test]
+    fn roughness_to_shininess() {
+        assert_eq!(shininess_of_roughness(1.0), 0.0);
+        assert_eq!(shininess_of_roughness(0.5), 30.0);
+        assert_eq!(shininess_of_roughness(0.0), 1e4);
     }
 
     #[test]

@@ -48,6 +48,11 @@ pub struct SurfacePoint {
     pub material: u32,
     /// Diffuse albedo ρ here: the material's texture times the interpolated vertex colour.
     pub albedo: Vec3,
+    /// Texture coordinates `TEXCOORD_0` and `TEXCOORD_1` (the first where the mesh has no
+    /// second set), bottom-left origin; zero where the surface has none.
+    pub uv: [Vec2; 2],
+    /// The interpolated vertex colour (`COLOR_0`), 1 where the mesh has none.
+    pub color: Vec3,
     /// The ray parameter of the hit (on triangles re-solved in f64, see the module docs).
     pub t: f32,
 }
@@ -114,7 +119,7 @@ impl SurfacePoint {
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
         let ns = if ns.dot(ray.dir) >= 0.0 { ng } else { ns };
         let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, t }
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv: [uv, uv], color: colour, t }
     }
 }
 

@@ -73,6 +73,17 @@ pub struct Image {
     held: Held,
 }
 
+/// How an image's channels encode their values.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Encoding {
+    /// Colours: the sRGB transfer function (glTF's base colour and emissive textures, OBJ's
+    /// `map_Kd`).
+    #[default]
+    Srgb,
+    /// Data, one for one (glTF's metallic-roughness and normal textures).
+    Linear,
+}
+
 /// The sRGB transfer function's inverse: an encoded channel in [0, 1] to linear.
 pub fn srgb_to_linear(c: f64) -> f64 {
     if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
@@ -153,6 +164,12 @@ impl Image {
     /// encoded texels still ahead of it): the texels are the one full-size allocation. 8-bit
     /// channels go through a 256-entry table, 16-bit ones through the formula.
     pub fn decode(bytes: &[u8], name: &str) -> Result<Image, String> {
+        Image::decode_as(bytes, name, Encoding::Srgb)
+    }
+
+    /// [`Image::decode`] with the channels' `encoding`: sRGB (colours) or linear (data:
+    /// glTF's metallic-roughness and normal textures).
+    pub fn decode_as(bytes: &[u8], name: &str, encoding: Encoding) -> Result<Image, String> {
         use image::ImageDecoder;
         let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
@@ -205,9 +222,13 @@ impl Image {
         let buffer: &mut [u8] = bytemuck::cast_slice_mut(&mut texels);
         let encoded = buffer.len() - n * bpp;
         decoder.read_image(&mut buffer[encoded..]).map_err(|e| format!("{name}: cannot decode the image: {e}"))?;
-        let t8: Vec<f32> = (0..256).map(|c| srgb_to_linear(c as f64 / 255.0) as f32).collect();
+        let decode = |c: f64| match encoding {
+            Encoding::Srgb => srgb_to_linear(c),
+            Encoding::Linear => c,
+        };
+        let t8: Vec<f32> = (0..256).map(|c| decode(c as f64 / 255.0) as f32).collect();
         let t8 = |c: u8| t8[c as usize];
-        let l16 = |b: &[u8]| srgb_to_linear(u16::from_ne_bytes([b[0], b[1]]) as f64 / 65535.0) as f32;
+        let l16 = |b: &[u8]| decode(u16::from_ne_bytes([b[0], b[1]]) as f64 / 65535.0) as f32;
         match color {
             image::ColorType::L8 => widen::<1>(buffer, n, |p| [t8(p[0]); 3]),
             image::ColorType::La8 => widen::<2>(buffer, n, |p| [t8(p[0]); 3]),
@@ -223,17 +244,26 @@ impl Image {
 
     /// Reads and decodes the image file at `path` (a regular file of at most
     /// [`crate::sys::read::max_mesh_bytes`]).
-    pub fn open(path: &Path) -> Result<Image, String> {
+    pub fn open(path: &Path, encoding: Encoding) -> Result<Image, String> {
         let cannot = |e: &dyn std::fmt::Display| format!("{}: cannot read the texture: {e}", path.display());
         let limit = crate::sys::read::max_mesh_bytes().map_err(|e| cannot(&e))?;
         let bytes =
             crate::sys::read::read_regular(path, limit, crate::sys::read::MESH_LIMIT_HINT).map_err(|e| cannot(&e))?;
-        Image::decode(&bytes, &path.display().to_string())
+        Image::decode_as(&bytes, &path.display().to_string(), encoding)
     }
 
     #[inline]
     fn texel(&self, i: usize, j: usize) -> Vec3 {
         self.texels[j * self.width + i]
+    }
+
+    /// The mean texel (summed in f64).
+    pub fn mean(&self) -> Vec3 {
+        if self.texels.is_empty() {
+            return Vec3::ZERO;
+        }
+        let sum = self.texels.iter().fold(glam::DVec3::ZERO, |s, t| s + t.as_dvec3());
+        (sum / self.texels.len() as f64).as_vec3()
     }
 
     /// Bytes the texels take.
@@ -293,18 +323,23 @@ impl ImageTexture {
 /// the same file (same canonical path, size and modification time) while another still holds
 /// it gets the same texels, decoded once.
 pub fn open_shared(path: &Path) -> Result<Arc<Image>, String> {
-    /// A file by canonical path, size in bytes and modification time.
-    type FileKey = (PathBuf, u64, Option<SystemTime>);
+    open_shared_as(path, Encoding::Srgb)
+}
+
+/// [`open_shared`] with the channels' `encoding` (a file read both ways is decoded twice).
+pub fn open_shared_as(path: &Path, encoding: Encoding) -> Result<Arc<Image>, String> {
+    /// A file by canonical path, size in bytes and modification time, and how it is decoded.
+    type FileKey = (PathBuf, u64, Option<SystemTime>, Encoding);
     static CACHE: Mutex<BTreeMap<FileKey, Weak<Image>>> = Mutex::new(BTreeMap::new());
     let meta = std::fs::metadata(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
-    let key = (path.canonicalize().unwrap_or_else(|_| path.to_path_buf()), meta.len(), meta.modified().ok());
+    let key = (path.canonicalize().unwrap_or_else(|_| path.to_path_buf()), meta.len(), meta.modified().ok(), encoding);
     let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     cache.retain(|_, image| image.strong_count() > 0);
     if let Some(image) = cache.get(&key).and_then(Weak::upgrade) {
         crate::sys::read::note_input(path).map_err(|e| format!("{}: cannot read the texture: {e}", path.display()))?;
         return Ok(image);
     }
-    let image = Arc::new(Image::open(path)?);
+    let image = Arc::new(Image::open(path, encoding)?);
     cache.insert(key, Arc::downgrade(&image));
     Ok(image)
 }

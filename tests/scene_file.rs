@@ -119,6 +119,7 @@ material = \"tiles\"
             emission: Vec3::ZERO,
             emission_one_sided: false,
             area_light: false,
+            pbr: None,
         }
     );
     assert_eq!(s.materials[1].emission, Vec3::new(10.0, 9.0, 8.0));

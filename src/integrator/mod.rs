@@ -35,7 +35,6 @@
 pub mod lights;
 pub mod path;
 pub mod path_lights;
-pub mod path_shading;
 pub mod pixel;
 pub mod shadow;
 pub mod whitted;

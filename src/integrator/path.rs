@@ -47,7 +47,6 @@
 
 use super::lights::SHADOW_TFAR_SCALE;
 use super::path_lights::PathLights;
-use super::path_shading::shade_at;
 use super::pixel::{CameraSample, FirstHit, Radiance};
 use super::{Integrator, PixelSamples, RayCounts};
 use crate::accel::{Accel, Hit, TraceError};
@@ -55,6 +54,7 @@ use crate::bsdf::LobeFlags;
 use crate::math::{Ray, Vec2, Vec3, offset_ray_origin};
 use crate::sampling::sobol::{CAMERA_DIMS, Sobol};
 use crate::scene::Scene;
+use crate::shading::shade_at;
 use crate::surface::SurfacePoint;
 
 /// Vertices before Russian roulette may end a path (module docs).
@@ -170,7 +170,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 first = Some(FirstHit::new(&sp, &h));
             }
             let wo = -ray.dir;
-            let shading = shade_at(scene, &sp);
+            let shading = shade_at(scene, &sp, wo, 0.0);
             if shading.emission != Vec3::ZERO {
                 let w = match prev {
                     None => 1.0,

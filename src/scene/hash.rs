@@ -36,8 +36,8 @@ use rayon::prelude::*;
 use xxhash_rust::xxh3::{Xxh3, xxh3_64};
 
 use super::{Mesh, RenderSpec, Scene};
-use crate::material::{Material, Texture};
-use crate::texture::{Image, ImageTexture};
+use crate::material::Material;
+use crate::texture::Image;
 
 /// The pieces bulk arrays are cut into, each hashed on its own (in parallel).
 pub const CHUNK: usize = 1 << 20;
@@ -131,14 +131,16 @@ impl Feed {
     }
 
     fn material(&mut self, m: &Material) {
-        let Texture::Image(t) = &m.diffuse else { return self.text(m) };
-        // The material as it prints, but with the image's texels left out ...
-        let image = &t.image;
-        let bare = image.without_texels();
-        let texture = ImageTexture { image: Arc::new(bare), ..t.clone() };
-        self.text(&Material { diffuse: Texture::Image(texture), ..m.clone() });
+        let images = m.images();
+        if images.is_empty() {
+            return self.text(m);
+        }
+        // The material as it prints, but with the images' texels left out ...
+        self.text(&m.without_texels());
         // ... and the texels as bytes.
-        self.u64(texels_digest(image));
+        for image in images {
+            self.u64(texels_digest(image));
+        }
     }
 
     fn mesh(&mut self, m: &Mesh) {
@@ -233,10 +235,11 @@ pub fn scene_hash_hex(scene: &Scene) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::material::Texture;
     use crate::math::{Vec2, Vec3};
     use crate::scene::procedural::whitted_showcase;
     use crate::scene::{Instance, transform::Transform};
-    use crate::texture::Wrap;
+    use crate::texture::{ImageTexture, Wrap};
 
     /// The showcase with an image texture on material 0, a textured mesh and an instance.
     fn scene() -> Scene {

@@ -9,6 +9,7 @@
 //! The objects are in `file/objects.rs`.
 
 mod objects;
+mod pbr;
 
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -342,6 +343,17 @@ struct MaterialFile {
     transmission: Option<Spanned<Triple>>,
     ior: Option<Spanned<f64>>,
     emission: Option<Spanned<Triple>>,
+    // The glTF metallic-roughness material (file/pbr.rs).
+    base_color: Option<Spanned<Triple>>,
+    base_color_texture: Option<Spanned<String>>,
+    metallic: Option<Spanned<f64>>,
+    roughness: Option<Spanned<f64>>,
+    metallic_roughness_texture: Option<Spanned<String>>,
+    emission_texture: Option<Spanned<String>>,
+    clearcoat: Option<Spanned<f64>>,
+    clearcoat_roughness: Option<Spanned<f64>>,
+    sheen_color: Option<Spanned<Triple>>,
+    sheen_roughness: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -509,7 +521,7 @@ impl SceneFile {
         let mut scene = Scene { camera, image, output, render, ..Default::default() };
         let mut material_ids = BTreeMap::new();
         for (i, (name, m)) in self.materials.iter().enumerate() {
-            let material = m.get_ref().to_material(name).map_err(|p| prefix(p, &format!("material '{name}'")))?;
+            let material = m.get_ref().to_material(name, base).map_err(|p| prefix(p, &format!("material '{name}'")))?;
             if name.contains('/') {
                 let message = "a material name cannot contain '/' (kept for the materials of mesh files)";
                 return Err(at(m.span(), format!("material '{name}': {message}")));
@@ -620,7 +632,10 @@ impl ImageFile {
 }
 
 impl MaterialFile {
-    fn to_material(&self, name: &str) -> Result<Material, Problem> {
+    fn to_material(&self, name: &str, base: &Path) -> Result<Material, Problem> {
+        if let Some(material) = pbr::material(self, name, base)? {
+            return Ok(material);
+        }
         let diffuse = match (&self.diffuse, &self.checker) {
             (Some(_), Some(checker)) => {
                 return Err(at(checker.span(), "give either `diffuse` or `checker`, not both"));
@@ -659,6 +674,7 @@ impl MaterialFile {
             emission: optional_color(&self.emission, "emission", None)?,
             emission_one_sided: false,
             area_light: false,
+            pbr: None,
         })
     }
 }

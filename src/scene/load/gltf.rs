@@ -44,11 +44,11 @@ use super::gltf_modes;
 use super::gltf_morph::{self, MeshSlots};
 use super::gltf_sparse;
 use crate::light::Light;
-use crate::material::{Material, Texture};
+use crate::material::{Material, Pbr, TextureSlot};
 use crate::math::{Vec2, Vec3};
 use crate::scene::transform::Transform;
 use crate::scene::{CameraSpec, Mesh};
-use crate::texture::{Image, ImageTexture, Wrap, open_shared};
+use crate::texture::{Encoding, Image, ImageTexture, Wrap, open_shared_as};
 
 /// A node that places a mesh: `GltfFile::meshes[mesh]` through `transform` (object to world).
 #[derive(Clone, Debug)]
@@ -272,6 +272,20 @@ fn check_hierarchy(doc: &gltf::Document, scene: &gltf::Scene) -> Result<Hierarch
     Ok(Hierarchy { placements, meshes })
 }
 
+/// A number of an extension's JSON object, `default` when absent or not a number.
+fn json_number(value: &serde_json::Value, key: &str, default: f32) -> f32 {
+    value.get(key).and_then(serde_json::Value::as_f64).map_or(default, |x| x as f32)
+}
+
+/// An RGB array of an extension's JSON object, `default` when absent or not three numbers.
+fn json_colour(value: &serde_json::Value, key: &str, default: Vec3) -> Vec3 {
+    let Some(a) = value.get(key).and_then(serde_json::Value::as_array) else { return default };
+    match a.iter().map(serde_json::Value::as_f64).collect::<Option<Vec<f64>>>().as_deref() {
+        Some(&[r, g, b]) => Vec3::new(r as f32, g as f32, b as f32),
+        _ => default,
+    }
+}
+
 /// Bytes a vertex can take while a mesh is read: position, normal, colour (12 each) and
 /// texture coordinates (8), every primitive's arrays filled for all of them.
 const VERTEX_BYTES: u64 = 44;
@@ -456,115 +470,21 @@ fn default_material() -> Material {
     Material { name: "gltf default".into(), ..Material::default() }
 }
 
-/// Exponent of the Blinn–Phong lobe matching a glTF roughness `r`: with `α = r²`,
-/// `n = 2/α² − 2` (the usual Beckmann–Phong correspondence), at most 10⁴.
-pub fn shininess_of_roughness(roughness: f32) -> f32 {
-    let alpha = (roughness.clamp(0.0, 1.0) as f64).powi(2);
-    if alpha <= 0.0 { 1e4 } else { (2.0 / (alpha * alpha) - 2.0).clamp(0.0, 1e4) as f32 }
-}
-
-/// Roughness at or below which a metallic (`metallic = 1`) glTF material is an ideal mirror.
-pub const MIRROR_ROUGHNESS: f32 = 0.1;
-
-/// The numbers of a glTF material that [`material_of`] maps.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pbr {
-    /// `baseColorFactor` (RGB, clamped to [0, 1]).
-    pub base_factor: Vec3,
-    pub metallic: f32,
-    pub roughness: f32,
-    /// `KHR_materials_transmission` `transmissionFactor` (0 without the extension).
-    pub transmission: f32,
-    /// `KHR_materials_ior` (1.5 without it).
-    pub ior: f32,
-    /// `emissiveFactor` times `KHR_materials_emissive_strength`, W/(m²·sr).
-    pub emission: Vec3,
-}
-
-/// The Whitted material closest to a glTF material, with `base` its base colour (a constant
-/// or a texture times `baseColorFactor`, RGB):
-/// - `KHR_materials_transmission` factor `t > 0` → glass: `transmission = t·base`, index
-///   of refraction `KHR_materials_ior` (default 1.5), diffuse `(1 − t)·base·(1 − metallic)`;
-/// - `metallic = 1` and `roughness ≤ 0.1` → an ideal mirror of reflectance `base`;
-/// - otherwise Lambert `(1 − metallic)·base` plus, for a partly metallic surface, a
-///   normalised Blinn–Phong highlight of weight `metallic·base` and exponent
-///   [`shininess_of_roughness`] (their sum is `base ≤ 1`). A dielectric's own 4 % specular
-///   reflection is left out, so a non-metal is exactly Lambertian, as in a TOML scene.
-/// - emission `emissiveFactor · KHR_materials_emissive_strength`.
-///
-/// A constant base colour is used where a reflectance is needed; a texture only enters the
-/// diffuse term (and is taken by its factor for the other terms).
-pub fn material_of(name: String, base: Texture, pbr: &Pbr) -> Material {
-    let Pbr { base_factor, metallic, roughness, transmission, ior, emission } = *pbr;
-    let scale = |t: &Texture, k: f32| match t {
-        Texture::Constant(c) => Texture::Constant(*c * k),
-        Texture::Image(img) => Texture::Image(ImageTexture { factor: img.factor * k, ..img.clone() }),
-        other => other.clone(),
-    };
-    let metallic = metallic.clamp(0.0, 1.0);
-    let mut m = Material { name, emission, ior, ..Material::default() };
-    if transmission > 0.0 {
-        let t = transmission.min(1.0);
-        m.transmission = base_factor * t;
-        m.diffuse = scale(&base, (1.0 - t) * (1.0 - metallic));
-    } else if metallic >= 1.0 && roughness <= MIRROR_ROUGHNESS {
-        m.diffuse = Texture::Constant(Vec3::ZERO);
-        m.mirror = base_factor;
-    } else {
-        m.diffuse = scale(&base, 1.0 - metallic);
-        if metallic > 0.0 {
-            m.specular = metallic * base_factor;
-            m.shininess = shininess_of_roughness(roughness);
-        }
-    }
-    m
-}
-
 impl Reader<'_> {
     fn warn(&mut self, message: String) {
         self.out.warnings.push(message);
     }
 
+    /// Every material as a [`Pbr`] with its lecture form ([`Pbr::lecture_form`]); what strahl
+    /// does not render is warned about by name (module docs of [`crate::material`]).
     fn materials(&mut self) -> Result<(), String> {
         let doc = self.doc;
         for material in doc.materials() {
             let i = material.index().unwrap_or(0);
             let what = format!("material {i}");
             let name = material.name().map_or_else(|| what.clone(), str::to_string);
-            let pbr = material.pbr_metallic_roughness();
-            let [r, g, b, _] = pbr.base_color_factor();
-            let factor = Vec3::new(r, g, b);
-            let base = match pbr.base_color_texture() {
-                Some(info) => self.texture(&info, factor, &what)?,
-                None => Texture::Constant(factor),
-            };
-            if pbr.metallic_roughness_texture().is_some() {
-                self.warn(format!("{what}: metallicRoughnessTexture ignored (its factors are used)"));
-            }
-            if material.normal_texture().is_some() {
-                self.warn(format!("{what}: normalTexture ignored"));
-            }
-            if material.emissive_texture().is_some() {
-                self.warn(format!("{what}: emissiveTexture ignored (emissiveFactor is used)"));
-            }
-            if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
-                self.warn(format!("{what}: alphaMode {:?} ignored (surfaces are opaque)", material.alpha_mode()));
-            }
-            let transmission = material.transmission().map_or(0.0, |t| t.transmission_factor());
-            if material.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
-                self.warn(format!("{what}: transmissionTexture ignored (transmissionFactor is used)"));
-            }
-            let [er, eg, eb] = material.emissive_factor();
-            let emission = Vec3::new(er, eg, eb) * material.emissive_strength().unwrap_or(1.0);
-            let numbers = Pbr {
-                base_factor: factor.clamp(Vec3::ZERO, Vec3::ONE),
-                metallic: pbr.metallic_factor(),
-                roughness: pbr.roughness_factor(),
-                transmission,
-                ior: material.ior().unwrap_or(1.5),
-                emission,
-            };
-            let m = material_of(name, base, &numbers);
+            let pbr = self.pbr(&material, &what)?;
+            let m = Material { pbr: Some(Box::new(pbr.clone())), ..pbr.lecture_form(name) };
             if let Some(problem) = m.problem() {
                 return Err(format!("{what}: {problem}"));
             }
@@ -573,27 +493,154 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// A base-colour texture (`factor` × image), its image decoded once per file.
-    fn texture(&mut self, info: &gltf::texture::Info, factor: Vec3, what: &str) -> Result<Texture, String> {
-        let texture = info.texture();
-        if info.tex_coord() != 0 {
-            self.warn(format!(
-                "{what}: texture {} uses TEXCOORD_{}; TEXCOORD_0 is used",
-                texture.index(),
-                info.tex_coord()
+    /// The glTF material `material` and the extensions strahl reads, with a warning for each
+    /// part it ignores.
+    fn pbr(&mut self, material: &gltf::Material, what: &str) -> Result<Pbr, String> {
+        let pbr = material.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        let [er, eg, eb] = material.emissive_factor();
+        let mut out = Pbr {
+            base_color: Vec3::new(r, g, b),
+            metallic: pbr.metallic_factor(),
+            roughness: pbr.roughness_factor(),
+            emission: Vec3::new(er, eg, eb) * material.emissive_strength().unwrap_or(1.0),
+            ior: material.ior().unwrap_or(1.5),
+            unlit: material.unlit(),
+            ..Pbr::default()
+        };
+        if let Some(info) = pbr.base_color_texture() {
+            let slot =
+                self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
+            out.base_color_texture = Some(slot);
+        }
+        if let Some(info) = pbr.metallic_roughness_texture() {
+            out.metallic_roughness_texture = Some(self.texture(
+                &info.texture(),
+                info.tex_coord(),
+                info.texture_transform(),
+                Encoding::Linear,
+                what,
+            )?);
+        }
+        if let Some(info) = material.emissive_texture() {
+            let slot =
+                self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
+            out.emissive_texture = Some(slot);
+        }
+        if material.normal_texture().is_some() {
+            self.warn(format!("{what}: normalTexture ignored (the interpolated normals are used)"));
+        }
+        if material.occlusion_texture().is_some() {
+            self.warn(format!("{what}: occlusionTexture ignored (the path tracer computes occlusion)"));
+        }
+        if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            self.warn(format!("{what}: alphaMode {:?} ignored (surfaces are opaque)", material.alpha_mode()));
+        }
+        if let Some(t) = material.transmission() {
+            out.transmission = t.transmission_factor();
+            if t.transmission_texture().is_some() {
+                self.warn(format!(
+                    "{what}: KHR_materials_transmission: transmissionTexture ignored (transmissionFactor is used)"
+                ));
+            }
+        }
+        if let Some(v) = material.volume() {
+            out.thickness = v.thickness_factor();
+            out.attenuation_color = Vec3::from(v.attenuation_color());
+            out.attenuation_distance = v.attenuation_distance();
+            if v.thickness_texture().is_some() {
+                self.warn(format!("{what}: KHR_materials_volume: thicknessTexture ignored (thicknessFactor is used)"));
+            }
+        }
+        if let Some(sp) = material.specular() {
+            out.specular = sp.specular_factor();
+            out.specular_color = Vec3::from(sp.specular_color_factor());
+            for (texture, name) in [
+                (sp.specular_texture().is_some(), "specularTexture"),
+                (sp.specular_color_texture().is_some(), "specularColorTexture"),
+            ] {
+                if texture {
+                    self.warn(format!("{what}: KHR_materials_specular: {name} ignored (its factor is used)"));
+                }
+            }
+        }
+        for (name, value) in material.extensions().into_iter().flatten() {
+            match name.as_str() {
+                "KHR_materials_clearcoat" => {
+                    out.clearcoat = json_number(value, "clearcoatFactor", 0.0);
+                    out.clearcoat_roughness = json_number(value, "clearcoatRoughnessFactor", 0.0);
+                    self.warn_textures(
+                        value,
+                        name,
+                        &["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"],
+                        what,
+                    );
+                }
+                "KHR_materials_sheen" => {
+                    out.sheen_color = json_colour(value, "sheenColorFactor", Vec3::ZERO);
+                    out.sheen_roughness = json_number(value, "sheenRoughnessFactor", 0.0);
+                    self.warn_textures(value, name, &["sheenColorTexture", "sheenRoughnessTexture"], what);
+                }
+                other => self.warn(format!("{what}: extension {other} is not supported; ignored")),
+            }
+        }
+        Ok(out)
+    }
+
+    /// Warns about each of `keys` (textures of extension `extension`) that `value` holds.
+    fn warn_textures(&mut self, value: &serde_json::Value, extension: &str, keys: &[&str], what: &str) {
+        for key in keys {
+            if value.get(key).is_some() {
+                self.warn(format!("{what}: {extension}: {key} ignored (its factor is used)"));
+            }
+        }
+    }
+
+    /// A material's texture: its image (decoded once per file and encoding) with its sampler's
+    /// wrap modes, the texture coordinate set it reads, and its `KHR_texture_transform`:
+    /// `uv' = T(offset) · R(rotation) · S(scale) · uv` in glTF's coordinates, with the
+    /// extension's GLSL rotation `mat3(cos, sin, 0, −sin, cos, 0, 0, 0, 1)` (column-major), so
+    ///
+    /// ```text
+    /// u' = cos·s_u·u − sin·s_v·v + o_u
+    /// v' = sin·s_u·u + cos·s_v·v + o_v
+    /// ```
+    ///
+    /// and its `texCoord`, when given, in place of the texture's.
+    fn texture(
+        &mut self,
+        texture: &gltf::Texture,
+        tex_coord: u32,
+        transform: Option<gltf::texture::TextureTransform>,
+        encoding: Encoding,
+        what: &str,
+    ) -> Result<TextureSlot, String> {
+        let tex_coord = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(tex_coord);
+        let matrix = transform.map(|t| {
+            let ([ou, ov], [su, sv], r) = (t.offset(), t.scale(), t.rotation());
+            let (sin, cos) = r.sin_cos();
+            [[cos * su, -sin * sv, ou], [sin * su, cos * sv, ov]]
+        });
+        if matrix.is_some_and(|m| !m.iter().flatten().all(|x| x.is_finite())) {
+            return Err(format!(
+                "{what}: texture {}: KHR_texture_transform has a value that is not finite",
+                texture.index()
             ));
+        }
+        if tex_coord != 0 {
+            self.warn(format!("{what}: texture {} uses TEXCOORD_{tex_coord}; TEXCOORD_0 is used", texture.index()));
         }
         let image = texture.source();
         let index = image.index();
         let key = match image.source() {
-            gltf::image::Source::View { view, .. } => format!("view {}", view.index()),
-            gltf::image::Source::Uri { uri, .. } => uri.to_string(),
+            gltf::image::Source::View { view, .. } => format!("{encoding:?} view {}", view.index()),
+            gltf::image::Source::Uri { uri, .. } => format!("{encoding:?} {uri}"),
         };
         let decoded = match self.images.get(&key) {
             Some(decoded) => decoded.clone(),
             None => {
                 let decoded = self
-                    .image(&image)
+                    .image(&image, encoding)
                     .map_err(|e| format!("{what}: texture {}: image {index}: {e}", texture.index()))?;
                 self.images.insert(key, decoded.clone());
                 decoded
@@ -605,26 +652,27 @@ impl Reader<'_> {
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         };
         let sampler = texture.sampler();
-        Ok(Texture::Image(ImageTexture {
+        let texture = ImageTexture {
             image: decoded,
             wrap_u: wrap(sampler.wrap_s()),
             wrap_v: wrap(sampler.wrap_t()),
-            factor,
-        }))
+            factor: Vec3::ONE,
+        };
+        Ok(TextureSlot { texture, tex_coord, transform: matrix })
     }
 
-    fn image(&mut self, image: &gltf::Image) -> Result<Arc<Image>, String> {
+    fn image(&mut self, image: &gltf::Image, encoding: Encoding) -> Result<Arc<Image>, String> {
         match image.source() {
             gltf::image::Source::View { view, .. } => {
                 let bytes = self.view_bytes(&view)?;
-                Ok(Arc::new(Image::decode(bytes, &format!("buffer view {}", view.index()))?))
+                Ok(Arc::new(Image::decode_as(bytes, &format!("buffer view {}", view.index()), encoding)?))
             }
             gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
-                Ok(Arc::new(Image::decode(&data_uri(uri)?, "its data: URI")?))
+                Ok(Arc::new(Image::decode_as(&data_uri(uri)?, "its data: URI", encoding)?))
             }
             gltf::image::Source::Uri { uri, .. } => {
                 let file = uri_file(uri, self.base)?;
-                let image = open_shared(&file)?;
+                let image = open_shared_as(&file, encoding)?;
                 self.out.files.push(file);
                 Ok(image)
             }
@@ -959,12 +1007,5 @@ mod tests {
     fn validation_paths_name_the_element() {
         assert_eq!(element_of_path("accessors[3].count"), "accessor 3: count");
         assert_eq!(element_of_path("meshes[0]"), "mesh 0");
-    }
-
-    #[test]
-    fn roughness_to_shininess() {
-        assert_eq!(shininess_of_roughness(1.0), 0.0);
-        assert_eq!(shininess_of_roughness(0.5), 30.0);
-        assert_eq!(shininess_of_roughness(0.0), 1e4);
     }
 }

@@ -19,8 +19,9 @@ use std::collections::HashMap;
 
 use serde_json::Value;
 
-/// Extensions strahl reads itself (beyond what the `gltf` crate parses).
-pub const STRAHL_EXTENSIONS: &[&str] = &["EXT_mesh_gpu_instancing"];
+/// Extensions strahl reads itself (beyond what the `gltf` crate parses): instancing here, the
+/// clearcoat and sheen materials from the material's JSON (`scene::load::gltf`).
+pub const STRAHL_EXTENSIONS: &[&str] = &["EXT_mesh_gpu_instancing", "KHR_materials_clearcoat", "KHR_materials_sheen"];
 
 /// The end of the message refusing a required extension.
 const REQUIRED: &str = "strahl does not support this required extension";

@@ -577,6 +577,7 @@ impl MtlBlock {
             emission: self.ke.unwrap_or(Vec3::ZERO),
             emission_one_sided: false,
             area_light: false,
+            pbr: None,
         }
     }
 }

@@ -1,0 +1,75 @@
+//! The material at a path vertex: what the path tracer asks of a hit's material at every
+//! vertex — its BSDF, its emitted radiance and the medium behind it.
+//!
+//! ```text
+//! PBR material (glTF, TOML base_color/metallic/…):
+//!   f   = bsdf::gltf(Pbr::params_at(uv, COLOR_0))           in the frame of n_s
+//!   L_e = emission · emissiveTexture(uv)                       (emissiveFactor · strength)
+//!   σ_a = −ln(attenuationColor) / attenuationDistance         (KHR_materials_volume)
+//!   unlit: f = 0, L_e = base colour
+//! lecture material (TOML diffuse/specular/mirror/transmission, OBJ):
+//!   f   = bsdf::lecture(ρ = SurfacePoint::albedo, k_s, n, k_r, k_t, η)
+//!   L_e = material.emission
+//! L_e = 0 on the back of a one-sided emitter.
+//! ```
+//!
+//! The Whitted integrator does not come here: it shades the lecture fields of every material
+//! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).
+
+use crate::bsdf::{self, Bsdf, Frame, LectureParams};
+use crate::math::Vec3;
+use crate::scene::Scene;
+use crate::surface::SurfacePoint;
+
+/// The medium behind a transmitting surface (`KHR_materials_volume`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Volume {
+    /// Absorption coefficient σ_a per unit of world length: radiance crossing a distance `d`
+    /// inside is scaled by `exp(−σ_a d)`.
+    pub sigma_a: Vec3,
+}
+
+/// What a path vertex needs of its material.
+#[derive(Clone, Copy, Debug)]
+pub struct Shading {
+    pub bsdf: Bsdf,
+    /// Radiance emitted back along the ray that found the point.
+    pub emission: Vec3,
+    /// The medium inside the object, when its material absorbs.
+    pub volume: Option<Volume>,
+    /// The surface's colour for the albedo pass: the base colour of a PBR material, ρ of a
+    /// lecture one.
+    pub first_hit_albedo: Vec3,
+}
+
+/// The BSDF, emission and volume of `sp` seen along `wo` (towards the viewer); `footprint`
+/// is the ray's width at the hit (world units; 0: a point sample). The material must exist:
+/// the scene is checked before rendering.
+pub fn shade_at(scene: &Scene, sp: &SurfacePoint, _wo: Vec3, _footprint: f32) -> Shading {
+    let m = &scene.materials[sp.material as usize];
+    let frame = Frame::from_normal(sp.ns);
+    let one_sided_back = m.emission_one_sided && !sp.front_face;
+    let Some(pbr) = m.pbr.as_deref() else {
+        let params = LectureParams {
+            albedo: sp.albedo,
+            specular: m.specular,
+            shininess: m.shininess,
+            mirror: m.mirror,
+            transmission: m.transmission,
+            ior: m.ior,
+        };
+        let bsdf = bsdf::lecture(&params, frame, sp.ng, sp.front_face);
+        let emission = if one_sided_back { Vec3::ZERO } else { m.emission };
+        return Shading { bsdf, emission, volume: None, first_hit_albedo: sp.albedo };
+    };
+    if pbr.unlit {
+        let base = pbr.base_color_at(sp.uv, sp.color);
+        let bsdf = Bsdf::new(frame, sp.ng, sp.front_face);
+        return Shading { bsdf, emission: base, volume: None, first_hit_albedo: base };
+    }
+    let params = pbr.params_at(sp.uv, sp.color);
+    let bsdf = bsdf::gltf(&params, frame, sp.ng, sp.front_face);
+    let emission = if one_sided_back { Vec3::ZERO } else { pbr.emission_at(sp.uv) };
+    let volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
+    Shading { bsdf, emission, volume, first_hit_albedo: params.base_color }
+}
