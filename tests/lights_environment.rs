@@ -257,7 +257,7 @@ fn hdr_maps_and_the_command_line_option() {
         ]);
         assert!(o.status.success(), "{}", common::text(&o.stderr));
         let (_, _, channels) = common::read_exr(&out);
-        let g = common::channel(&channels, "G");
+        let g = common::channel(&channels, "ViewLayer.Combined.G");
         let mean = g.iter().map(|&x| x as f64).sum::<f64>() / g.len() as f64;
         assert!((mean - 0.5).abs() < 0.01, "--environment {env}: mean {mean}");
     }

@@ -56,7 +56,9 @@ impl<'a> PathLights<'a> {
         for (k, e) in emitters.iter().enumerate() {
             emitter_of_mesh[e.mesh as usize] = Some(k as u32);
         }
-        let set = LightSet::new(&scene.lights, &scene.area_lights, emitters, environment_of(scene));
+        let bounds = scene.bounds();
+        let radius = 0.5 * (bounds.max - bounds.min).length();
+        let set = LightSet::new(&scene.lights, &scene.area_lights, emitters, environment_of(scene), radius);
         PathLights { scene, set, area_of_material, emitter_of_mesh }
     }
 
@@ -74,7 +76,7 @@ impl<'a> PathLights<'a> {
             Emitter::Area(*k)
         } else if let GeomKind::Mesh(m) = self.scene.geom_kind(hit.geom_id) {
             match self.emitter_of_mesh.get(m as usize) {
-                Some(Some(e)) => Emitter::Mesh(*e),
+                Some(Some(e)) => Emitter::Triangle { mesh: *e, prim: hit.prim_id },
                 _ => return 0.0,
             }
         } else {

@@ -104,6 +104,11 @@ impl MeshEmitter {
         self.prims.binary_search(&prim).ok()
     }
 
+    /// The position of triangle `i` among those given to [`MeshEmitter::new`].
+    pub fn prim(&self, i: usize) -> u32 {
+        self.prims[i]
+    }
+
     /// The area of triangle `i`, m².
     pub fn triangle_area(&self, i: usize) -> f64 {
         self.cdf[i] - if i == 0 { 0.0 } else { self.cdf[i - 1] }
