@@ -202,14 +202,14 @@ impl Environment {
 
     /// The world direction `d` in the map's frame: `R_y(−α)·d`.
     #[inline]
-    fn to_map(&self, d: Vec3) -> Vec3 {
+    fn world_to_map(&self, d: Vec3) -> Vec3 {
         let (c, s) = self.turn();
         Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z)
     }
 
     /// The map's frame back to the world: `R_y(α)·d`.
     #[inline]
-    fn from_map(&self, d: Vec3) -> Vec3 {
+    fn map_to_world(&self, d: Vec3) -> Vec3 {
         let (c, s) = self.turn();
         Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z)
     }
@@ -217,7 +217,7 @@ impl Environment {
     /// The map coordinates `(u, t)` of the unit world direction `wi`.
     #[inline]
     fn coordinates(&self, wi: Vec3) -> (f32, f32) {
-        let d = self.to_map(wi);
+        let d = self.world_to_map(wi);
         let y = d.y.clamp(-1.0, 1.0);
         let mut u = 0.5 + d.z.atan2(d.x) / (2.0 * PI);
         if u >= 1.0 {
@@ -254,7 +254,7 @@ impl Environment {
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
         let wi = match &self.source {
             EnvironmentSource::Constant(_) => square_to_uniform_sphere(u),
-            EnvironmentSource::Map(m) => self.from_map(m.sample(u)).normalize(),
+            EnvironmentSource::Map(m) => self.map_to_world(m.sample(u)).normalize(),
         };
         let pdf = self.pdf(wi);
         (pdf > 0.0 && pdf.is_finite()).then(|| (wi, self.radiance(wi), pdf))
