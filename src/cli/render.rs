@@ -61,6 +61,11 @@ pub struct RenderArgs {
     /// scaled so its largest channel is at most C (less fireflies, less energy) [default: off].
     #[arg(long, value_name = "C", allow_negative_numbers = true)]
     clamp: Option<f32>,
+    /// The radiance from far away along rays that leave the scene (overrides the scene's
+    /// `[environment]`): an equirectangular map (OpenEXR or Radiance .hdr, Blender's
+    /// orientation; see docs/lights.md), or a constant colour R,G,B.
+    #[arg(long, value_name = "FILE|R,G,B")]
+    environment: Option<String>,
     /// What finds the closest hits: Intel Embree, or strahl's own BVH.
     #[arg(long, value_enum, default_value_t = Backend::Embree)]
     backend: Backend,
@@ -98,7 +103,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     super::set_load_options(&args.confine, args.max_memory)?;
-    let loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
+    let mut loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
+    if let Some(arg) = &args.environment {
+        loaded.scene.environment =
+            Some(strahl::light::environment_file::environment_argument(arg).map_err(anyhow::Error::msg)?);
+    }
     let settings = Settings {
         width: args.width,
         height: args.height,

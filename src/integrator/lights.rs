@@ -93,13 +93,14 @@ pub fn mesh_emitters(scene: &Scene) -> Vec<MeshEmitter> {
         let material = scene.materials.get(mesh.material_of(i) as usize);
         let l = material.map_or(Vec3::ZERO, |m| m.emission);
         let area_light = material.is_some_and(|m| m.area_light);
-        (l != Vec3::ZERO && !area_light && l.is_finite()).then(|| (mesh.triangle(i), l))
+        let l = if !area_light && l.is_finite() { l } else { Vec3::ZERO };
+        (mesh.triangle(i), l)
     };
+    // Every triangle is given (those that do not emit with radiance 0, which the emitter
+    // leaves out), so the emitter knows its triangles by their index in the mesh.
     let meshes = scene.meshes.iter().enumerate();
     meshes
-        .filter_map(|(k, mesh)| {
-            MeshEmitter::new(k as u32, samples, (0..mesh.indices.len()).filter_map(|i| emitting(mesh, i)))
-        })
+        .filter_map(|(k, mesh)| MeshEmitter::new(k as u32, samples, (0..mesh.indices.len()).map(|i| emitting(mesh, i))))
         .collect()
 }
 

@@ -358,6 +358,9 @@ pub fn check_scene(scene: &Scene) -> Result<(), RenderError> {
             return bad("image".into(), format!("{name} {c} must be finite and ≥ 0"));
         }
     }
+    if let Some(problem) = scene.environment.as_ref().and_then(|e| e.problem()) {
+        return bad("environment".into(), problem);
+    }
     for (i, m) in scene.materials.iter().enumerate() {
         if let Some(problem) = m.problem() {
             return bad(format!("material {i} '{}'", m.name), problem);

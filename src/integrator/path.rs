@@ -17,8 +17,9 @@
 //! directional lights are sampled by NEE only (`w_light = 1`); emission that the camera ray or
 //! a ray after a specular bounce finds counts whole (`w_bsdf = 1`), as does emission of an
 //! emitter that is not a light (an emissive sphere, or `mesh_lights = false`). Rays that escape
-//! bring the scene's `background` (a constant environment, found by BSDF sampling alone;
-//! camera rays of a `transparent` render see 0 there). There is no ambient term: it is the
+//! bring the environment's radiance ([`crate::light::environment`]; without one the scene's
+//! `background`, a constant environment), weighted by MIS against NEE's sampling of it, and
+//! camera rays of a `transparent` render see 0 there. There is no ambient term: it is the
 //! Whitted integrator's stand-in for the light this integrator follows.
 //!
 //! **Depth.** `image.max_depth = d` scatterings at most: NEE and BSDF sampling happen at
@@ -137,6 +138,25 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
     }
 
+    /// Adds what the ray that escaped after `depth` scatterings (from `prev`, as in
+    /// [`Self::radiance`]) sees of the environment, weighted against NEE's sampling of it;
+    /// camera rays of a `transparent` render see 0.
+    fn add_environment(&self, l: &mut Vec3, beta: Vec3, ray: &Ray, prev: Option<(Vec3, Vec3, f32)>, depth: u32) {
+        if depth == 0 && self.scene.output.transparent {
+            return;
+        }
+        let wi = ray.dir.normalize();
+        let le = self.lights.environment(wi);
+        if le == Vec3::ZERO {
+            return;
+        }
+        let w = match prev {
+            None => 1.0,
+            Some((p, n, pdf_bsdf)) => power_heuristic(pdf_bsdf, self.lights.pdf_environment(p, n, wi)),
+        };
+        self.add(l, beta * le * w, depth >= 2);
+    }
+
     /// The radiance along the camera ray `ray` whose closest hit is `hit`, drawing from the
     /// pixel's sampler `s` (begun for this sample), and what the AOVs record of that hit.
     pub fn radiance(
@@ -156,13 +176,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut first = None;
         // The previous vertex and its BSDF density of the ray's direction; `None` for the
         // camera ray and after a specular bounce (emission counts whole).
-        let mut prev: Option<(Vec3, f32)> = None;
+        let mut prev: Option<(Vec3, Vec3, f32)> = None;
         let mut depth = 0u32;
         loop {
             let Some(h) = hit else {
-                let background =
-                    if depth == 0 && scene.output.transparent { Vec3::ZERO } else { scene.image.background };
-                self.add(&mut l, beta * background, depth >= 2);
+                self.add_environment(&mut l, beta, &ray, prev, depth);
                 break;
             };
             let sp = SurfacePoint::new(scene, &ray, &h);
@@ -174,7 +192,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             if shading.emission != Vec3::ZERO {
                 let w = match prev {
                     None => 1.0,
-                    Some((p, pdf_bsdf)) => power_heuristic(pdf_bsdf, self.lights.pdf_hit(p, ray.dir, &h, &sp)),
+                    Some((p, n, pdf_bsdf)) => power_heuristic(pdf_bsdf, self.lights.pdf_hit(p, n, ray.dir, &h, &sp)),
                 };
                 self.add(&mut l, beta * shading.emission * w, depth >= 2);
             }
@@ -191,7 +209,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
 
             // Next-event estimation.
             if bsdf.flags().intersects(LobeFlags::DIFFUSE | LobeFlags::GLOSSY) {
-                if let Some((ls, choice)) = self.lights.sample(sp.p, u_select, u_light) {
+                if let Some((ls, choice)) = self.lights.sample(sp.p, sp.ns, u_select, u_light) {
                     let f = bsdf.eval(wo, ls.wi).sum() * ls.wi.dot(sp.ns).abs();
                     if f != Vec3::ZERO && ls.radiance != Vec3::ZERO {
                         counts.shadow += 1;
@@ -210,7 +228,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 break;
             }
             beta *= bs.f * (bs.wi.dot(sp.ns).abs() / bs.pdf);
-            prev = if bs.flags.is_specular() { None } else { Some((sp.p, bs.pdf)) };
+            prev = if bs.flags.is_specular() { None } else { Some((sp.p, sp.ns, bs.pdf)) };
             if bs.is_transmission() {
                 eta_scale *= bs.eta * bs.eta;
             }
@@ -240,7 +258,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
 
 /// The shadow ray from `sp` towards the light sample `ls`: from the point moved off the
 /// surface to the side of the light, ending just short of a light point at a finite distance.
-fn shadow_ray(sp: &SurfacePoint, ls: &super::path_lights::LightSample) -> Ray {
+fn shadow_ray(sp: &SurfacePoint, ls: &crate::light::set::LightSample) -> Ray {
     let side = if ls.wi.dot(sp.ng) > 0.0 { sp.ng } else { -sp.ng };
     let origin = offset_ray_origin(sp.p, side);
     if ls.distance.is_finite() {

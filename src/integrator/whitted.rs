@@ -35,7 +35,8 @@
 //! and `T = 1 − R` ([`crate::optics`]); beyond the critical angle `R = 1` (total internal
 //! reflection). A ray entering or leaving a dielectric is told apart by the geometric normal:
 //! entering when it arrives on the side the normal points to (`ior` inside, 1 outside).
-//! Rays that escape return the background radiance.
+//! Rays that escape return the background radiance, or the environment's along their
+//! direction when the scene has one (it lights nothing else: no diffuse surface samples it).
 //!
 //! **Recursion.** The primary ray has depth 0; a hit at depth `k` spawns reflected and
 //! refracted rays only while `k < image.max_depth`, so at most `max_depth` secondary rays
@@ -192,9 +193,14 @@ impl<'a, A: Accel> Whitted<'a, A> {
         Whitted { scene, accel, camera, lights: Lights::new(scene) }
     }
 
-    /// The radiance of rays that hit nothing: the background, or 0 in a transparent render.
-    fn background(&self) -> Vec3 {
-        if self.scene.output.transparent { Vec3::ZERO } else { self.scene.image.background }
+    /// The radiance of a ray along `dir` that hits nothing: the environment's (which lights
+    /// nothing else here), else the background; 0 in a transparent render.
+    fn background(&self, dir: Vec3) -> Vec3 {
+        match &self.scene.environment {
+            _ if self.scene.output.transparent => Vec3::ZERO,
+            Some(env) => env.radiance(dir.normalize()),
+            None => self.scene.image.background,
+        }
     }
 
     /// The radiance along a primary ray whose closest hit is `hit`, and what the AOVs record
@@ -219,7 +225,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
         counts: &mut RayCounts,
     ) -> Result<(Vec3, Radiance, Option<FirstHit>), TraceError> {
         let Some(hit) = hit else {
-            let background = self.background();
+            let background = self.background(ray.dir);
             return Ok((background, Radiance { background, ..Default::default() }, None));
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
@@ -240,7 +246,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
         counts: &mut RayCounts,
     ) -> Result<Vec3, TraceError> {
         match self.accel.intersect(ray)? {
-            None => Ok(self.background()),
+            None => Ok(self.background(ray.dir)),
             Some(hit) => {
                 let sp = SurfacePoint::new(self.scene, ray, &hit);
                 self.shade(ray, &sp, depth, throughput, dims, counts)
@@ -312,7 +318,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
     fn shade_emission(&self, ray: &Ray, hit: Option<&Hit>, out: &mut CameraSample) -> Option<SurfacePoint> {
         out.first = None;
         let Some(hit) = hit else {
-            let background = self.background();
+            let background = self.background(ray.dir);
             out.radiance = background;
             out.split = Radiance { background, ..Default::default() };
             return None;

@@ -30,6 +30,9 @@ use crate::math::{Vec2, Vec3};
 pub struct MeshEmitter {
     /// Index into the scene's meshes.
     pub mesh: u32,
+    /// Per kept triangle: its position in the triangles given to [`MeshEmitter::new`] (the
+    /// mesh's triangle index when every triangle is given), increasing.
+    prims: Vec<u32>,
     corners: Vec<[DVec3; 3]>,
     radiance: Vec<Vec3>,
     /// `cdf[i]` = area of triangles `0..=i`; the last is the total.
@@ -41,15 +44,24 @@ pub struct MeshEmitter {
 impl MeshEmitter {
     /// The emitter of mesh `mesh` (an index into the scene's meshes) made of `triangles`
     /// (corners and radiance), cast `samples` times per shading point; triangles of zero or
-    /// non-finite area are left out, and with them all, so is the emitter (`None`).
+    /// non-finite area, or of radiance 0, are left out, and with them all, so is the emitter
+    /// (`None`).
     pub fn new(mesh: u32, samples: u32, triangles: impl IntoIterator<Item = ([Vec3; 3], Vec3)>) -> Option<MeshEmitter> {
-        let mut e = MeshEmitter { mesh, corners: Vec::new(), radiance: Vec::new(), cdf: Vec::new(), samples };
+        let mut e = MeshEmitter {
+            mesh,
+            prims: Vec::new(),
+            corners: Vec::new(),
+            radiance: Vec::new(),
+            cdf: Vec::new(),
+            samples,
+        };
         let mut total = 0.0;
-        for (corners, l) in triangles {
+        for (prim, (corners, l)) in triangles.into_iter().enumerate() {
             let [a, b, c] = corners.map(|p| p.as_dvec3());
             let area = 0.5 * (b - a).cross(c - a).length();
-            if area > 0.0 && area.is_finite() {
+            if area > 0.0 && area.is_finite() && l != Vec3::ZERO {
                 total += area;
+                e.prims.push(prim as u32);
                 e.corners.push([a, b, c]);
                 e.radiance.push(l);
                 e.cdf.push(total);
@@ -80,6 +92,40 @@ impl MeshEmitter {
     /// The radiance of triangle `i` (an index [`MeshEmitter::sample_point`] returns).
     pub fn radiance(&self, i: usize) -> Vec3 {
         self.radiance[i]
+    }
+
+    /// Number of emitting triangles kept.
+    pub fn triangle_count(&self) -> usize {
+        self.corners.len()
+    }
+
+    /// The kept triangle that was triangle `prim` of those given to [`MeshEmitter::new`].
+    pub fn triangle_of_prim(&self, prim: u32) -> Option<usize> {
+        self.prims.binary_search(&prim).ok()
+    }
+
+    /// The position of triangle `i` among those given to [`MeshEmitter::new`].
+    pub fn prim(&self, i: usize) -> u32 {
+        self.prims[i]
+    }
+
+    /// The area of triangle `i`, m².
+    pub fn triangle_area(&self, i: usize) -> f64 {
+        self.cdf[i] - if i == 0 { 0.0 } else { self.cdf[i - 1] }
+    }
+
+    /// The corners of triangle `i`.
+    pub fn triangle(&self, i: usize) -> [DVec3; 3] {
+        self.corners[i]
+    }
+
+    /// A point of triangle `i` for `u ∈ [0, 1)²`, uniform by area, and the triangle's unit
+    /// normal (by the winding).
+    pub fn sample_triangle(&self, i: usize, u: Vec2) -> (DVec3, DVec3) {
+        let [a, b, c] = self.corners[i];
+        let s = (u.x as f64).sqrt();
+        let y = (1.0 - s) * a + s * (1.0 - u.y as f64) * b + s * u.y as f64 * c;
+        (y, (b - a).cross(c - a).normalize())
     }
 
     /// One sample of the mesh seen from `p` for the point `u ∈ [0, 1)²`, as

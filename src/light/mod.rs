@@ -2,10 +2,15 @@
 //!
 //! Point and directional lights ([`Light`]) are delta lights: each lights a point from exactly
 //! one direction, tested with one shadow ray, which gives Whitted's hard shadows. Lights with
-//! a shape ([`area::AreaLight`]) are sampled, which gives soft shadows.
+//! a shape ([`area::AreaLight`]) are sampled, which gives soft shadows. The environment
+//! ([`environment::Environment`]) lights from infinitely far away; [`set::LightSet`] is every
+//! light behind the path tracer's one sampling interface.
 
 pub mod area;
+pub mod environment;
+pub mod environment_file;
 pub mod mesh;
+pub mod set;
 
 use crate::math::Vec3;
 

@@ -12,6 +12,7 @@
 //! Directions are in a local frame whose `z` is the normal; `u` lies in `[0, 1)²`.
 
 pub mod chi2;
+pub mod distribution;
 pub mod quadrature;
 pub mod sobol;
 

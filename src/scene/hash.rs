@@ -12,7 +12,7 @@
 //! - the `Debug` text of the small settings: camera, image, output, lights, area lights,
 //!   object names (every field, including fields added later), and the `[render]` settings
 //!   (the integrator) unless they are the default (Whitted's, which thus fingerprints as
-//!   before);
+//!   before); the environment, if there is one, its map's texels as bytes;
 //! - per material its `Debug` text with the texels of its image left out, then the image's
 //!   texels as bytes;
 //! - the spheres, planes, meshes, prototypes and instances, field by field, as bytes.
@@ -176,6 +176,13 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     // The Whitted integrator's settings feed nothing, so its fingerprints stay as they were.
     if scene.render != RenderSpec::default() {
         f.text(&scene.render);
+    }
+    // A scene without an environment feeds nothing, so its fingerprint stays as it was.
+    if let Some(env) = &scene.environment {
+        f.text(env);
+        if let crate::light::environment::EnvironmentSource::Map(m) = &env.source {
+            f.u64(digest(bytemuck::cast_slice(&m.image.texels)));
+        }
     }
     f.u64(scene.materials.len() as u64);
     for m in &scene.materials {

@@ -211,6 +211,9 @@ pub struct Scene {
     pub instances: Vec<Instance>,
     /// The integrator and its settings (the `[render]` table).
     pub render: RenderSpec,
+    /// Radiance from far away along rays that leave the scene (the `[environment]` table,
+    /// `--environment`); without one, rays that escape see `image.background`.
+    pub environment: Option<crate::light::environment::Environment>,
 }
 
 /// The object names of a scene's primitives, filled by the scene loader: `meshes[i]` names

@@ -8,6 +8,7 @@
 //! are located at the object's `path` and end in the mesh file's own `path:line: problem`.
 //! The objects are in `file/objects.rs`.
 
+mod environment;
 mod objects;
 mod pbr;
 
@@ -253,6 +254,7 @@ struct SceneFile {
     objects: Vec<Spanned<ObjectFile>>,
     output: Option<Spanned<OutputFile>>,
     render: Option<Spanned<RenderFile>>,
+    environment: Option<Spanned<environment::EnvironmentFile>>,
 }
 
 /// `[render]`: the integrator (`"path"`, the default, or `"whitted"`) and the path tracer's
@@ -518,7 +520,9 @@ impl SceneFile {
         };
         let output = self.output.as_ref().map_or(Ok(OutputSpec::default()), |o| o.get_ref().to_spec())?;
         let render = self.render.as_ref().map_or(Ok(RenderSpec::default()), |r| r.get_ref().to_spec())?;
-        let mut scene = Scene { camera, image, output, render, ..Default::default() };
+        let environment =
+            self.environment.as_ref().map(|e| e.get_ref().to_environment(&e.span(), base)).transpose()?;
+        let mut scene = Scene { camera, image, output, render, environment, ..Default::default() };
         let mut material_ids = BTreeMap::new();
         for (i, (name, m)) in self.materials.iter().enumerate() {
             let material = m.get_ref().to_material(name, base).map_err(|p| prefix(p, &format!("material '{name}'")))?;

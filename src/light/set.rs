@@ -1,0 +1,459 @@
+//! Every light of a scene behind one sampling interface, as the path tracer samples them: one
+//! light chosen per shading point, in proportion to its power, a direction towards it, and the
+//! density with which that choice would have produced a direction a BSDF sample found (for
+//! multiple importance sampling).
+//!
+//! ```text
+//! choice        P(light) = Φ_light / Σ Φ     (a CDF over the lights' powers, luminance of RGB)
+//!   point         Φ = 4π·I
+//!   directional   Φ = π·r²·E                 (r: the radius of the scene's bounding sphere)
+//!   quad, disk,   Φ = π·L·A  (2π·L·A two-sided)
+//!   sphere
+//!   mesh triangle Φ = 2π·L·A                 (each emissive triangle a light; two-sided)
+//!   environment   Φ = π·L̄·π·r²              (L̄ its mean radiance: the flux through the
+//!                                             scene's bounding disc from one side)
+//! point         wi = (x − p)/|x − p|,  radiance I/d²,  pdf 1 (delta)
+//! directional   wi = −direction,       radiance E,     pdf 1 (delta)
+//! quad, disk    uniform by area:          pdf_ω = d² / (|cosθ_l|·A)
+//! sphere        uniform in its cone:      pdf_ω = 1 / (2π(1 − cosθ_max)),  sin θ_max = r/|c − p|
+//!               (by area from inside a two-sided sphere, as for a quad)
+//! triangle      uniform by area:          pdf_ω = d² / (|cosθ_l|·A_triangle)
+//! environment   its own importance sampling (crate::light::environment), distance ∞
+//! ```
+//!
+//! The points are drawn by the lights themselves ([`crate::light::area`],
+//! [`crate::light::mesh`], [`crate::light::environment`]); this file adds the densities and
+//! the choice ([`crate::sampling::distribution::Distribution1D`]). Each sample carries the
+//! light's radiance `L` (W/(m²·sr)) and the integrator divides by `P(light)·pdf_ω`; `pdf_hit`
+//! and `pdf_environment` return the same product for a direction a BSDF sample found, from the
+//! same numbers. A light of power 0 is never chosen (and its density is 0). Point and
+//! directional lights are delta lights: NEE only.
+//!
+//! The set is built from plain lights (the scene imports the lights, so the lights cannot
+//! import the scene): the integrator maps a hit on an emitter to the [`Emitter`] it is.
+
+use glam::DVec3;
+
+use crate::light::Light;
+use crate::light::area::{AreaLight, Shape};
+use crate::light::environment::{Environment, luminance};
+use crate::light::mesh::MeshEmitter;
+use crate::math::{Vec2, Vec3};
+use crate::sampling::distribution::Distribution1D;
+
+/// One light sample seen from a shading point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point (`f32::INFINITY` for a directional light or the
+    /// environment).
+    pub distance: f32,
+    /// Radiance arriving along `−wi` (for a delta light `I/d²` or `E`).
+    pub radiance: Vec3,
+    /// Solid-angle density of `wi` for this light alone (1 for delta lights).
+    pub pdf: f32,
+    /// A point or directional light: no BSDF sample can find it.
+    pub delta: bool,
+}
+
+/// An emitter a BSDF-sampled ray can hit: area light `k`, or triangle `prim` (its index in
+/// the scene's mesh) of emissive mesh `mesh` of the set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Emitter {
+    Area(u32),
+    Triangle { mesh: u32, prim: u32 },
+}
+
+/// What a light of the choice is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Entry {
+    Delta(u32),
+    Area(u32),
+    /// Kept triangle `tri` of emissive mesh `mesh`.
+    Triangle {
+        mesh: u32,
+        tri: u32,
+    },
+    Environment,
+}
+
+/// The lights of a scene and how one is chosen (module docs).
+#[derive(Clone, Debug)]
+pub struct LightSet {
+    delta: Vec<Light>,
+    area: Vec<AreaLight>,
+    meshes: Vec<MeshEmitter>,
+    environment: Option<Environment>,
+    entries: Vec<Entry>,
+    /// Over the entries, by power; `None` without entries.
+    selection: Option<Distribution1D>,
+    /// The entry of area light 0.
+    area_base: usize,
+    /// Per emissive mesh: the entry of its first triangle.
+    mesh_base: Vec<usize>,
+    environment_entry: Option<usize>,
+}
+
+impl LightSet {
+    /// The set of these lights, in a scene whose bounding sphere has radius `scene_radius`
+    /// (for the power of directional lights and the environment).
+    pub fn new(
+        delta: &[Light],
+        area: &[AreaLight],
+        meshes: Vec<MeshEmitter>,
+        environment: Option<Environment>,
+        scene_radius: f32,
+    ) -> LightSet {
+        use std::f64::consts::PI;
+        let r = if scene_radius.is_finite() && scene_radius > 0.0 { scene_radius as f64 } else { 1.0 };
+        let lum = |c: Vec3| luminance(c).max(0.0) as f64;
+        let mut entries = Vec::new();
+        let mut power = Vec::new();
+        for (i, l) in delta.iter().enumerate() {
+            entries.push(Entry::Delta(i as u32));
+            power.push(match *l {
+                Light::Point { intensity, .. } => 4.0 * PI * lum(intensity),
+                Light::Directional { irradiance, .. } => PI * r * r * lum(irradiance),
+            });
+        }
+        let area_base = entries.len();
+        for (i, l) in area.iter().enumerate() {
+            entries.push(Entry::Area(i as u32));
+            power.push(PI * lum(l.radiance) * l.area() * if l.two_sided { 2.0 } else { 1.0 });
+        }
+        let mut mesh_base = Vec::with_capacity(meshes.len());
+        for (m, e) in meshes.iter().enumerate() {
+            mesh_base.push(entries.len());
+            for t in 0..e.triangle_count() {
+                entries.push(Entry::Triangle { mesh: m as u32, tri: t as u32 });
+                power.push(2.0 * PI * lum(e.radiance(t)) * e.triangle_area(t));
+            }
+        }
+        let environment_entry = environment.as_ref().map(|env| {
+            entries.push(Entry::Environment);
+            power.push(PI * lum(env.mean_radiance()) * PI * r * r);
+            entries.len() - 1
+        });
+        let power: Vec<f32> = power.into_iter().map(|p| p as f32).collect();
+        let selection = (!entries.is_empty()).then(|| Distribution1D::new(&power));
+        LightSet {
+            delta: delta.to_vec(),
+            area: area.to_vec(),
+            meshes,
+            environment,
+            entries,
+            selection,
+            area_base,
+            mesh_base,
+            environment_entry,
+        }
+    }
+
+    /// Number of lights (each emissive triangle one, the environment one).
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether there is no light to sample.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The probability of choosing entry `k`.
+    fn choice(&self, k: usize) -> f32 {
+        self.selection.as_ref().map_or(0.0, |s| s.probability(k))
+    }
+
+    /// Chooses a light for the shading point `p` (normal `n`) with `u_select`, samples it
+    /// with `u`: the sample and the probability of having chosen that light. `None` when the
+    /// chosen light cannot reach `p` (behind a one-sided light, `p` on it).
+    pub fn sample(&self, p: Vec3, _n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
+        let (k, choice, _) = self.selection.as_ref()?.sample_discrete(u_select);
+        if !(choice > 0.0) {
+            return None;
+        }
+        Some((self.sample_entry(k, p, u)?, choice))
+    }
+
+    /// A sample of light `k` from `p` for `u` (its density for this light alone).
+    fn sample_entry(&self, k: usize, p: Vec3, u: Vec2) -> Option<LightSample> {
+        let sample = match self.entries[k] {
+            Entry::Delta(i) => {
+                let inc = self.delta[i as usize].incidence(p)?;
+                LightSample {
+                    wi: inc.to_light,
+                    distance: inc.distance,
+                    radiance: inc.normal_irradiance,
+                    pdf: 1.0,
+                    delta: true,
+                }
+            }
+            Entry::Area(i) => {
+                let light = &self.area[i as usize];
+                let inc = light.sample(p, u)?;
+                let pdf = area_light_pdf(&light.shape, p, inc.to_light, inc.distance);
+                LightSample { wi: inc.to_light, distance: inc.distance, radiance: light.radiance, pdf, delta: false }
+            }
+            Entry::Triangle { mesh, tri } => {
+                let e = &self.meshes[mesh as usize];
+                let (y, normal) = e.sample_triangle(tri as usize, u);
+                let to = y - p.as_dvec3();
+                let d2 = to.length_squared();
+                let d = d2.sqrt();
+                let wi = to / d;
+                let cos_l = normal.dot(wi).abs();
+                if !(d2 > 0.0 && cos_l > 0.0) {
+                    return None;
+                }
+                let pdf = (d2 / (cos_l * e.triangle_area(tri as usize))) as f32;
+                LightSample {
+                    wi: wi.as_vec3(),
+                    distance: d as f32,
+                    radiance: e.radiance(tri as usize),
+                    pdf,
+                    delta: false,
+                }
+            }
+            Entry::Environment => {
+                let (wi, radiance, pdf) = self.environment.as_ref()?.sample(u)?;
+                LightSample { wi, distance: f32::INFINITY, radiance, pdf, delta: false }
+            }
+        };
+        (sample.pdf > 0.0 && sample.pdf.is_finite()).then_some(sample)
+    }
+
+    /// The density (choice × solid angle) with which [`LightSet::sample`] from `p` (normal
+    /// `n`) would have produced the direction `wi` that reached `emitter` at the point `y`
+    /// (geometric normal `ng`, either side).
+    pub fn pdf_hit(&self, p: Vec3, _n: Vec3, wi: Vec3, emitter: Emitter, y: Vec3, ng: Vec3) -> f32 {
+        let d = (y - p).length();
+        let (pdf, entry) = match emitter {
+            Emitter::Area(k) => {
+                let Some(light) = self.area.get(k as usize) else { return 0.0 };
+                (area_light_pdf(&light.shape, p, wi, d), self.area_base + k as usize)
+            }
+            Emitter::Triangle { mesh, prim } => {
+                let Some(e) = self.meshes.get(mesh as usize) else { return 0.0 };
+                let Some(tri) = e.triangle_of_prim(prim) else { return 0.0 };
+                let cos_l = ng.dot(wi).abs() as f64;
+                let d2 = (d as f64) * (d as f64);
+                let pdf = if cos_l > 0.0 { (d2 / (cos_l * e.triangle_area(tri))) as f32 } else { 0.0 };
+                (pdf, self.mesh_base[mesh as usize] + tri)
+            }
+        };
+        if pdf > 0.0 && pdf.is_finite() { pdf * self.choice(entry) } else { 0.0 }
+    }
+
+    /// The density with which [`LightSet::sample`] from `p` (normal `n`) would have produced
+    /// the direction `wi` that escaped into the environment.
+    pub fn pdf_environment(&self, _p: Vec3, _n: Vec3, wi: Vec3) -> f32 {
+        match (self.environment.as_ref(), self.environment_entry) {
+            (Some(env), Some(k)) => env.pdf(wi) * self.choice(k),
+            _ => 0.0,
+        }
+    }
+
+    /// The radiance of the environment along the escaping direction `wi` (0 without one).
+    pub fn environment(&self, wi: Vec3) -> Vec3 {
+        self.environment.as_ref().map_or(Vec3::ZERO, |e| e.radiance(wi))
+    }
+}
+
+/// The solid-angle density with which an area light of `shape` is sampled from `p` in the
+/// direction `wi` (unit) that meets it at distance `d` (module docs).
+pub fn area_light_pdf(shape: &Shape, p: Vec3, wi: Vec3, d: f32) -> f32 {
+    let (w, d) = (wi.as_dvec3(), d as f64);
+    let by_area = |normal: DVec3, area: f64| {
+        let cos_l = normal.dot(w).abs();
+        if cos_l > 0.0 { d * d / (cos_l * area) } else { 0.0 }
+    };
+    let pdf = match *shape {
+        Shape::Quad { edge1, edge2, .. } => {
+            let cross = edge1.as_dvec3().cross(edge2.as_dvec3());
+            by_area(cross.normalize(), cross.length())
+        }
+        Shape::Disk { normal, radius, .. } => {
+            by_area(normal.as_dvec3().normalize(), std::f64::consts::PI * (radius as f64).powi(2))
+        }
+        Shape::Sphere { center, radius } => {
+            let (c, r) = (center.as_dvec3(), radius as f64);
+            let dc2 = (c - p.as_dvec3()).length_squared();
+            if dc2 <= r * r {
+                let y = p.as_dvec3() + d * w;
+                by_area((y - c) / r, 4.0 * std::f64::consts::PI * r * r)
+            } else {
+                let sin2_max = r * r / dc2;
+                let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+                1.0 / (2.0 * std::f64::consts::PI * (sin2_max / (1.0 + cos_max)))
+            }
+        }
+    };
+    pdf as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use super::*;
+    use crate::texture::Image;
+
+    /// A light's density integrates to 1 over the directions that reach it: the mean of
+    /// 1/pdf over its own samples is the solid angle it subtends, which for a sphere is
+    /// 2π(1 − cosθ_max) and for a small quad far away A·cosθ/d².
+    #[test]
+    fn densities_are_those_of_the_samples() {
+        let area = [
+            AreaLight {
+                shape: Shape::Sphere { center: Vec3::new(0.0, 3.0, 0.0), radius: 1.0 },
+                radiance: Vec3::ONE,
+                two_sided: false,
+                samples: 1,
+            },
+            AreaLight {
+                shape: Shape::Quad { corner: Vec3::new(-1.0, 2.0, -1.0), edge1: Vec3::X * 2.0, edge2: Vec3::Z * 2.0 },
+                radiance: Vec3::ONE,
+                two_sided: true,
+                samples: 1,
+            },
+        ];
+        let lights = LightSet::new(&[], &area, Vec::new(), None, 1.0);
+        assert_eq!(lights.len(), 2);
+        // Chosen by power: π·L·4πr² for the sphere, 2π·L·A for the two-sided quad.
+        let (sphere_power, quad_power) = (4.0 * PI * PI, 2.0 * PI * 4.0);
+        let sphere_choice = (sphere_power / (sphere_power + quad_power)) as f32;
+        let n = 256;
+        let mut inv = [0.0f64; 2];
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                for (k, sel) in [0.25f32, 0.75].into_iter().enumerate() {
+                    let (s, choice) = lights.sample(Vec3::ZERO, Vec3::Y, sel, u).unwrap();
+                    let want = if k == 0 { sphere_choice } else { 1.0 - sphere_choice };
+                    assert!((choice - want).abs() < 1e-6, "{choice} vs {want}");
+                    inv[k] += 1.0 / s.pdf as f64 / (n * n) as f64;
+                }
+            }
+        }
+        let sphere = 2.0 * std::f64::consts::PI * (1.0 - (1.0f64 - 1.0 / 9.0).sqrt());
+        assert!((inv[0] - sphere).abs() < 1e-4 * sphere, "{} vs {sphere}", inv[0]);
+        // The 2 × 2 quad at height 2 centred on the axis: 4·asin(a·b/√((a²+h²)(b²+h²))) with
+        // half-sides a = b = 1, h = 2.
+        let quad = 4.0 * (1.0f64 / 5.0).asin();
+        assert!((inv[1] - quad).abs() < 1e-3 * quad, "{} vs {quad}", inv[1]);
+    }
+
+    /// One light of every kind: a point and a directional light, a quad, a disk and a sphere,
+    /// an emissive mesh of three triangles (one not emitting) and an environment map.
+    fn every_kind() -> LightSet {
+        let delta = [
+            Light::Point { position: Vec3::new(0.0, 3.0, 0.0), intensity: Vec3::splat(5.0) },
+            Light::Directional { direction: Vec3::new(1.0, -1.0, 0.0), irradiance: Vec3::splat(2.0) },
+        ];
+        let light = |shape, two_sided| AreaLight { shape, radiance: Vec3::new(1.0, 2.0, 3.0), two_sided, samples: 1 };
+        let area = [
+            light(Shape::Quad { corner: Vec3::new(-1.0, 2.0, -1.0), edge1: Vec3::X * 1.5, edge2: Vec3::Z }, false),
+            light(
+                Shape::Disk { center: Vec3::new(2.0, 1.0, 0.0), normal: Vec3::new(-1.0, 0.0, 0.0), radius: 0.5 },
+                true,
+            ),
+            light(Shape::Sphere { center: Vec3::new(0.0, 1.0, 3.0), radius: 0.7 }, false),
+        ];
+        let tri = |a: [f32; 3], b: [f32; 3], c: [f32; 3]| [Vec3::from(a), Vec3::from(b), Vec3::from(c)];
+        let mesh = MeshEmitter::new(
+            0,
+            1,
+            [
+                (tri([-2.0, 0.5, -2.0], [-1.0, 0.5, -2.0], [-2.0, 1.5, -2.5]), Vec3::splat(4.0)),
+                (tri([0.0, 0.0, -3.0], [1.0, 0.0, -3.0], [0.0, 1.0, -3.0]), Vec3::ZERO),
+                (tri([1.0, 2.0, -2.0], [2.0, 2.5, -2.0], [1.0, 3.0, -1.0]), Vec3::new(0.5, 1.0, 8.0)),
+            ],
+        )
+        .unwrap();
+        let (w, h) = (16, 8);
+        let texels = (0..w * h).map(|k| Vec3::splat(0.1 + (k % 7) as f32 * (k / w) as f32)).collect();
+        let env =
+            Environment { rotation_deg: 20.0, ..Environment::map(Image::from_texels("sky", w, h, texels).unwrap()) };
+        LightSet::new(&delta, &area, vec![mesh], Some(env), 4.0)
+    }
+
+    #[test]
+    fn pdf_hit_is_the_choice_times_the_density_sample_reported() {
+        let lights = every_kind();
+        assert_eq!(lights.len(), 2 + 3 + 2 + 1);
+        let p = Vec3::new(0.1, 0.2, -0.3);
+        let n = 64;
+        let mut checked = [0usize; 8];
+        for (k, entry) in lights.entries.iter().enumerate() {
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    let Some(s) = lights.sample_entry(k, p, u) else { continue };
+                    let want = lights.choice(k) * s.pdf;
+                    let y = p + s.wi * s.distance;
+                    let got = match *entry {
+                        Entry::Delta(_) => {
+                            assert!(s.delta && s.pdf == 1.0);
+                            continue;
+                        }
+                        Entry::Environment => lights.pdf_environment(p, Vec3::Y, s.wi),
+                        Entry::Area(a) => {
+                            let ng = match lights.area[a as usize].shape {
+                                Shape::Quad { edge1, edge2, .. } => edge1.cross(edge2).normalize(),
+                                Shape::Disk { normal, .. } => normal,
+                                Shape::Sphere { center, .. } => (y - center).normalize(),
+                            };
+                            lights.pdf_hit(p, Vec3::Y, s.wi, Emitter::Area(a), y, ng)
+                        }
+                        Entry::Triangle { mesh, tri } => {
+                            let e = &lights.meshes[mesh as usize];
+                            let [a, b, c] = e.triangle(tri as usize);
+                            let ng = (b - a).cross(c - a).normalize().as_vec3();
+                            let prim = e.prim(tri as usize);
+                            lights.pdf_hit(p, Vec3::Y, s.wi, Emitter::Triangle { mesh, prim }, y, ng)
+                        }
+                    };
+                    assert!((got - want).abs() <= 1e-4 * want, "light {k} {entry:?}: pdf_hit {got} vs {want}");
+                    checked[k] += 1;
+                }
+            }
+        }
+        // Every light but the delta ones was checked, most samples of each.
+        assert!(checked[2..].iter().all(|&c| c > n * n / 3), "{checked:?}");
+        // The non-emitting triangle is no light; the choice follows the powers.
+        assert_eq!(
+            lights.pdf_hit(
+                p,
+                Vec3::Y,
+                Vec3::NEG_Z,
+                Emitter::Triangle { mesh: 0, prim: 1 },
+                Vec3::new(0.1, 0.2, -3.0),
+                Vec3::Z
+            ),
+            0.0
+        );
+        let total: f32 = (0..lights.len()).map(|k| lights.choice(k)).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+        let point = lights.choice(0) as f64 / (4.0 * PI * 5.0);
+        let env = lights.choice(7) as f64
+            / (PI * PI * 16.0 * luminance(lights.environment.as_ref().unwrap().mean_radiance()) as f64);
+        assert!((point - env).abs() < 1e-5 * point, "choice per watt: point {point}, environment {env}");
+    }
+
+    #[test]
+    fn the_choice_is_drawn_by_power() {
+        // The share of u_select choosing each light is its probability.
+        let lights = every_kind();
+        let n = 100_000;
+        let mut counts = vec![0usize; lights.len()];
+        for i in 0..n {
+            let (k, p, _) = lights.selection.as_ref().unwrap().sample_discrete((i as f32 + 0.5) / n as f32);
+            assert_eq!(p, lights.choice(k));
+            counts[k] += 1;
+        }
+        for (k, c) in counts.iter().enumerate() {
+            assert!((*c as f32 / n as f32 - lights.choice(k)).abs() < 1e-4, "light {k}");
+        }
+    }
+}
