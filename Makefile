@@ -84,7 +84,7 @@ pip_install = python3 -c "$(2)" 2>/dev/null || \
 SKIP_LOG := $(abspath $(or $(CARGO_TARGET_DIR),target))/skipped-tests.txt
 test: deps test-deps
 	@mkdir -p $(dir $(SKIP_LOG)) && rm -f $(SKIP_LOG)
-	@status=0; STRAHL_SKIP_LOG=$(SKIP_LOG) $(CARGO) test --locked || status=$$?; \
+	@status=0; STRAHL_SKIP_LOG=$(SKIP_LOG) $(CARGO) test --locked --no-fail-fast || status=$$?; \
 	if [ -s $(SKIP_LOG) ]; then \
 	  echo "skipped checks: $$(sort -u $(SKIP_LOG) | wc -l) (install the tool each names to run it):"; sort -u $(SKIP_LOG); \
 	else echo "no test skipped a check"; fi; \

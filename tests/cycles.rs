@@ -53,7 +53,7 @@ fn blender_cornell(dir: &Path, spp: u32, opaque: bool) -> Option<(PathBuf, PathB
         .args(opaque.then_some("opaque"))
         .output()
         .expect("blender runs");
-    let (glb, exr) = (dir.join("cornell.glb"), dir.join("cycles.exr"));
+    let (glb, exr) = (dir.join("cornell.gltf"), dir.join("cycles.exr"));
     assert!(
         out.status.success() && glb.exists() && (spp == 0 || exr.exists()),
         "blender failed:\n{}\n{}",

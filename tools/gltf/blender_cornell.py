@@ -4,7 +4,7 @@ it with Cycles, for the path tracer's comparison with Cycles (tests/cycles.rs,
 
     blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque]
 
-writes OUT_DIR/cornell.glb and OUT_DIR/cycles.exr (SIZE x SIZE pixels, SPP samples, scene-linear
+writes OUT_DIR/cornell.gltf (+ .bin) and OUT_DIR/cycles.exr (SIZE x SIZE pixels, SPP samples, scene-linear
 RGBA floats; SPP 0 exports without rendering). `opaque` makes the glass sphere white diffuse, lifts
 both spheres 0.2 off the floor, closes the room with a white front wall and puts the camera
 inside it (at (0, -0.9, 1), a 16 mm lens): then every pixel sees a surface of a closed, lit
@@ -28,6 +28,7 @@ DEPTH - 1, every kind), no clamp, no glossy filter, caustics on, no adaptive sam
 denoising, a box filter of one pixel (strahl's) and a black world.
 """
 
+import json
 import math
 import os
 import sys
@@ -145,13 +146,27 @@ scene.render.resolution_x = size
 scene.render.resolution_y = size
 scene.render.resolution_percentage = 100
 
+gltf_path = os.path.join(out_dir, "cornell.gltf")
 bpy.ops.export_scene.gltf(
-    filepath=os.path.join(out_dir, "cornell.glb"),
-    export_format="GLB",
+    filepath=gltf_path,
+    export_format="GLTF_SEPARATE",
     export_cameras=True,
     export_lights=False,
     export_apply=True,
 )
+
+# Principled's Specular 0 exports as KHR_materials_specular's specularColorFactor 0 (F0 = 0) but
+# keeps specularFactor 1, which by the extension still reflects at grazing angles (F90 = 1). Set
+# specularFactor 0 as well, so that the file's diffuse materials are exactly Lambert, as the
+# Diffuse BSDF that Cycles renders below.
+with open(gltf_path) as f:
+    doc = json.load(f)
+for material in doc.get("materials", []):
+    specular = material.get("extensions", {}).get("KHR_materials_specular")
+    if specular is not None and specular.get("specularColorFactor") == [0, 0, 0]:
+        specular["specularFactor"] = 0.0
+with open(gltf_path, "w") as f:
+    json.dump(doc, f)
 
 if spp == 0:
     sys.exit(0)

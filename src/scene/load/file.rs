@@ -520,8 +520,7 @@ impl SceneFile {
         };
         let output = self.output.as_ref().map_or(Ok(OutputSpec::default()), |o| o.get_ref().to_spec())?;
         let render = self.render.as_ref().map_or(Ok(RenderSpec::default()), |r| r.get_ref().to_spec())?;
-        let environment =
-            self.environment.as_ref().map(|e| e.get_ref().to_environment(&e.span(), base)).transpose()?;
+        let environment = self.environment.as_ref().map(|e| e.get_ref().to_environment(&e.span(), base)).transpose()?;
         let mut scene = Scene { camera, image, output, render, environment, ..Default::default() };
         let mut material_ids = BTreeMap::new();
         for (i, (name, m)) in self.materials.iter().enumerate() {

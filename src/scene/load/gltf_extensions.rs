@@ -19,9 +19,22 @@ use std::collections::HashMap;
 
 use serde_json::Value;
 
-/// Extensions strahl reads itself (beyond what the `gltf` crate parses): instancing here, the
-/// clearcoat and sheen materials from the material's JSON (`scene::load::gltf`).
-pub const STRAHL_EXTENSIONS: &[&str] = &["EXT_mesh_gpu_instancing", "KHR_materials_clearcoat", "KHR_materials_sheen"];
+/// Extensions strahl reads: instancing here, the lights and materials in `scene::load::gltf`
+/// (clearcoat and sheen from the material's JSON, the others through the `gltf` crate's
+/// features, whose own list of enabled extensions does not name them all).
+pub const STRAHL_EXTENSIONS: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
+    "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_sheen",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_unlit",
+    "KHR_materials_volume",
+    "KHR_texture_transform",
+];
 
 /// The end of the message refusing a required extension.
 const REQUIRED: &str = "strahl does not support this required extension";
