@@ -12,6 +12,11 @@ fn main() -> ExitCode {
     // A panic is a bug in strahl; say so in one line instead of a backtrace hint.
     std::panic::set_hook(Box::new(|info| {
         let message = info.to_string().replace('\n', " ");
+        // `strahl info … | head`: the reader closed standard output and nobody is left to tell
+        // anything, so end quietly, with the status of a Unix tool that SIGPIPE ended (128 + 13).
+        if message.contains("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(141);
+        }
         eprintln!("error: internal error (a bug in strahl, please report it): {message}");
     }));
     let args = match cli::Cli::try_parse() {

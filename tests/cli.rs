@@ -515,3 +515,19 @@ fn negative_numbers_are_refused_naming_their_option() {
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
     }
 }
+
+#[test]
+fn a_closed_standard_output_ends_the_command_quietly() {
+    // `strahl info scenes/blob.toml | head -0`: the reader is gone before strahl prints.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(["info", scene_path("blob.toml").to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("strahl starts");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    // The status of a tool that SIGPIPE ended, and no report of a bug.
+    assert_eq!(out.status.code(), Some(141), "{}", text(&out.stderr));
+    assert!(out.stderr.is_empty(), "{}", text(&out.stderr));
+}
