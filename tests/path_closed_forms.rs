@@ -262,3 +262,29 @@ material = "mirror"
     assert!((mean - 4.0 * factor).abs() <= 3.0 * se + 0.002 * 4.0, "glass: {mean} ± {se} vs {}", 4.0 * factor);
     assert!(mean > 3.0, "the light shows through the glass: {mean}");
 }
+
+/// A glass sphere (PBR transmission 1, IOR 1.5) of radius 1 that absorbs (`KHR_materials_volume`:
+/// half the light left after a distance 1, σ_a = ln 2), seen head-on from afar in a uniform
+/// environment of 1. Along the axis every path is specular: reflected at the front (R), or
+/// refracted in and crossing the sphere (a = e^(−2σ_a) per crossing) any number of times
+/// before it leaves, so the centre pixel is `R + (1 − R)²·a / (1 − R·a)`, R = 0.04 the Fresnel
+/// reflectance at normal incidence. Without absorption (a = 1) it would be 1.
+#[test]
+fn an_absorbing_glass_sphere_transmits_the_beer_lambert_series() {
+    let mut s = scene(
+        "[render]\nintegrator = \"path\"\n\
+         [camera]\neye = [0, 0, 20]\ntarget = [0, 0, 0]\nfov_deg = 0.3\n\
+         [image]\nwidth = 3\nheight = 3\nspp = 4096\nmax_depth = 64\nbackground = 1\n\
+         [materials.glass]\nbase_color = 1\nmetallic = 0\nroughness = 0\ntransmission = 1\nior = 1.5\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"glass\"\n",
+    );
+    let pbr = s.materials[0].pbr.as_mut().expect("a PBR material");
+    (pbr.thickness, pbr.attenuation_color, pbr.attenuation_distance) = (1.0, strahl::Vec3::splat(0.5), 1.0);
+    let (film, _) = common::render(&s);
+    let centre = film.rgba[film.index(1, 1)];
+    let (r, a) = (0.04f64, 0.25f64);
+    let want = r + (1.0 - r).powi(2) * a / (1.0 - r * a);
+    for c in 0..3 {
+        assert!((centre[c] as f64 - want).abs() < 0.01 * want, "channel {c}: {} vs {want:.5}", centre[c]);
+    }
+}

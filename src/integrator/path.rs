@@ -22,6 +22,11 @@
 //! camera rays of a `transparent` render see 0 there. There is no ambient term: it is the
 //! Whitted integrator's stand-in for the light this integrator follows.
 //!
+//! **Absorption** (`KHR_materials_volume`). A ray that refracts into an object whose material
+//! has a volume travels in it until it next meets a surface, and its throughput is scaled by
+//! `exp(−σ_a·t)` over that distance; refracting out ends the medium. Media do not nest (a ray
+//! leaving an inner object is taken to be outside every one), and only absorption is modelled.
+//!
 //! **Depth.** `image.max_depth = d` scatterings at most: NEE and BSDF sampling happen at
 //! vertices `x_0 … x_{d−1}`, so `d = 0` shows emitters only and `d = 1` direct light.
 //!
@@ -177,8 +182,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         // The previous vertex and its BSDF density of the ray's direction; `None` for the
         // camera ray and after a specular bounce (emission counts whole).
         let mut prev: Option<(Vec3, Vec3, f32)> = None;
+        // σ_a of the absorbing object the ray travels inside, if any (module docs).
+        let mut medium: Option<Vec3> = None;
         let mut depth = 0u32;
         loop {
+            if let Some(sigma_a) = medium {
+                beta *= transmittance(sigma_a, hit.map_or(f32::INFINITY, |h| h.t));
+            }
             let Some(h) = hit else {
                 self.add_environment(&mut l, beta, &ray, prev, depth);
                 break;
@@ -231,6 +241,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             prev = if bs.flags.is_specular() { None } else { Some((sp.p, sp.ns, bs.pdf)) };
             if bs.is_transmission() {
                 eta_scale *= bs.eta * bs.eta;
+                // Into the object through its surface, or out of it.
+                medium = if bs.wi.dot(sp.ng_outward) < 0.0 { shading.volume.map(|v| v.sigma_a) } else { None };
             }
             if depth >= ROULETTE_AFTER {
                 let q = (beta * eta_scale).max_element().min(1.0);
@@ -254,6 +266,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
         Ok((l, first))
     }
+}
+
+/// Beer–Lambert: the fraction `exp(−σ_a·t)` of radiance left after a distance `t` in a medium
+/// (1 where σ_a is 0, also for `t = ∞`).
+fn transmittance(sigma_a: Vec3, t: f32) -> Vec3 {
+    let tr = |s: f32| if s > 0.0 { (-s * t).exp() } else { 1.0 };
+    Vec3::new(tr(sigma_a.x), tr(sigma_a.y), tr(sigma_a.z))
 }
 
 /// The shadow ray from `sp` towards the light sample `ls`: from the point moved off the
