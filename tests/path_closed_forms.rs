@@ -284,7 +284,7 @@ fn an_absorbing_glass_sphere_transmits_the_beer_lambert_series() {
     let centre = film.rgba[film.index(1, 1)];
     let (r, a) = (0.04f64, 0.25f64);
     let want = r + (1.0 - r).powi(2) * a / (1.0 - r * a);
-    for c in 0..3 {
-        assert!((centre[c] as f64 - want).abs() < 0.01 * want, "channel {c}: {} vs {want:.5}", centre[c]);
+    for (c, &got) in centre[..3].iter().enumerate() {
+        assert!((got as f64 - want).abs() < 0.01 * want, "channel {c}: {got} vs {want:.5}");
     }
 }
