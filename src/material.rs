@@ -272,29 +272,16 @@ impl TextureSlot {
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pbr {
-    /// `baseColorFactor` (RGB, linear).
-    pub base_color: Vec3,
+    /// The factors: `baseColorFactor` (RGB, linear), `metallicFactor`, `roughnessFactor` and
+    /// those of `KHR_materials_ior`, `_transmission`, `_specular`, `_clearcoat` and `_sheen`, as
+    /// [`crate::bsdf::gltf`] takes them; the textures below multiply some of them at a hit.
+    pub factors: PbrParams,
     pub base_color_texture: Option<TextureSlot>,
-    pub metallic: f32,
-    pub roughness: f32,
     /// Blue: metalness, green: roughness (linear).
     pub metallic_roughness_texture: Option<TextureSlot>,
     /// `emissiveFactor · KHR_materials_emissive_strength`, W/(m²·sr).
     pub emission: Vec3,
     pub emissive_texture: Option<TextureSlot>,
-    /// `KHR_materials_ior`.
-    pub ior: f32,
-    /// `KHR_materials_transmission`.
-    pub transmission: f32,
-    /// `KHR_materials_specular`.
-    pub specular: f32,
-    pub specular_color: Vec3,
-    /// `KHR_materials_clearcoat`.
-    pub clearcoat: f32,
-    pub clearcoat_roughness: f32,
-    /// `KHR_materials_sheen`.
-    pub sheen_color: Vec3,
-    pub sheen_roughness: f32,
     /// `KHR_materials_volume`: `thicknessFactor` (0: thin-walled, no volume),
     /// `attenuationColor` and `attenuationDistance` (infinite: no absorption).
     pub thickness: f32,
@@ -307,23 +294,12 @@ pub struct Pbr {
 
 impl Default for Pbr {
     fn default() -> Self {
-        let p = PbrParams::default();
         Pbr {
-            base_color: p.base_color,
+            factors: PbrParams::default(),
             base_color_texture: None,
-            metallic: p.metallic,
-            roughness: p.roughness,
             metallic_roughness_texture: None,
             emission: Vec3::ZERO,
             emissive_texture: None,
-            ior: p.ior,
-            transmission: p.transmission,
-            specular: p.specular,
-            specular_color: p.specular_color,
-            clearcoat: p.clearcoat,
-            clearcoat_roughness: p.clearcoat_roughness,
-            sheen_color: p.sheen_color,
-            sheen_roughness: p.sheen_roughness,
             thickness: 0.0,
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
@@ -345,7 +321,7 @@ impl Pbr {
     /// The base colour at a hit: factor × texture × vertex colour `color`.
     pub fn base_color_at(&self, uv: [Vec2; 2], color: Vec3) -> Vec3 {
         let texture = self.base_color_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
-        self.base_color * texture * color
+        self.factors.base_color * texture * color
     }
 
     /// What `bsdf::gltf` takes at a hit with texture coordinates `uv` and vertex colour `color`.
@@ -353,16 +329,9 @@ impl Pbr {
         let mr = self.metallic_roughness_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
         PbrParams {
             base_color: self.base_color_at(uv, color),
-            metallic: self.metallic * mr.z,
-            roughness: self.roughness * mr.y,
-            ior: self.ior,
-            transmission: self.transmission,
-            specular: self.specular,
-            specular_color: self.specular_color,
-            clearcoat: self.clearcoat,
-            clearcoat_roughness: self.clearcoat_roughness,
-            sheen_color: self.sheen_color,
-            sheen_roughness: self.sheen_roughness,
+            metallic: self.factors.metallic * mr.z,
+            roughness: self.factors.roughness * mr.y,
+            ..self.factors
         }
     }
 
@@ -398,20 +367,20 @@ impl Pbr {
     /// - unlit: Lambert of the base colour (Whitted has no unlit surface).
     pub fn lecture_form(&self, name: String) -> Material {
         let mr = TextureSlot::mean(&self.metallic_roughness_texture);
-        let metallic = (self.metallic * mr.z).clamp(0.0, 1.0);
-        let roughness = self.roughness * mr.y;
-        let base = (self.base_color * TextureSlot::mean(&self.base_color_texture)).clamp(Vec3::ZERO, Vec3::ONE);
+        let metallic = (self.factors.metallic * mr.z).clamp(0.0, 1.0);
+        let roughness = self.factors.roughness * mr.y;
+        let base = (self.factors.base_color * TextureSlot::mean(&self.base_color_texture)).clamp(Vec3::ZERO, Vec3::ONE);
         let diffuse = |k: f32| match &self.base_color_texture {
-            Some(t) => Texture::Image(ImageTexture { factor: self.base_color * k, ..t.texture.clone() }),
-            None => Texture::Constant(self.base_color * k),
+            Some(t) => Texture::Image(ImageTexture { factor: self.factors.base_color * k, ..t.texture.clone() }),
+            None => Texture::Constant(self.factors.base_color * k),
         };
         let emission = self.emission * TextureSlot::mean(&self.emissive_texture);
-        let mut m = Material { name, emission, ior: self.ior, ..Material::default() };
+        let mut m = Material { name, emission, ior: self.factors.ior, ..Material::default() };
         if self.unlit {
             m.diffuse = diffuse(1.0);
             m.emission = Vec3::ZERO;
-        } else if self.transmission > 0.0 {
-            let t = self.transmission.min(1.0);
+        } else if self.factors.transmission > 0.0 {
+            let t = self.factors.transmission.min(1.0);
             m.transmission = base * t;
             m.diffuse = diffuse((1.0 - t) * (1.0 - metallic));
         } else if metallic >= 1.0 && roughness <= MIRROR_ROUGHNESS {
@@ -431,24 +400,24 @@ impl Pbr {
     /// number, a negative colour.
     pub fn problem(&self) -> Option<String> {
         let numbers = [
-            ("metallic", self.metallic),
-            ("roughness", self.roughness),
-            ("ior", self.ior),
-            ("transmission", self.transmission),
-            ("specular", self.specular),
-            ("clearcoat", self.clearcoat),
-            ("clearcoat roughness", self.clearcoat_roughness),
-            ("sheen roughness", self.sheen_roughness),
+            ("metallic", self.factors.metallic),
+            ("roughness", self.factors.roughness),
+            ("ior", self.factors.ior),
+            ("transmission", self.factors.transmission),
+            ("specular", self.factors.specular),
+            ("clearcoat", self.factors.clearcoat),
+            ("clearcoat roughness", self.factors.clearcoat_roughness),
+            ("sheen roughness", self.factors.sheen_roughness),
             ("thickness", self.thickness),
         ];
         numbers
             .iter()
             .find(|(_, x)| !(x.is_finite() && *x >= 0.0))
             .map(|(what, x)| format!("{what} {x} must be a finite number ≥ 0"))
-            .or_else(|| bad_colour("base colour", self.base_color))
+            .or_else(|| bad_colour("base colour", self.factors.base_color))
             .or_else(|| bad_colour("emission", self.emission))
-            .or_else(|| bad_colour("specular colour", self.specular_color))
-            .or_else(|| bad_colour("sheen colour", self.sheen_color))
+            .or_else(|| bad_colour("specular colour", self.factors.specular_color))
+            .or_else(|| bad_colour("sheen colour", self.factors.sheen_color))
             .or_else(|| bad_colour("attenuation colour", self.attenuation_color))
             .or_else(|| {
                 (!(self.attenuation_distance > 0.0))

@@ -161,9 +161,9 @@ fn extensions_are_read_or_named_in_a_warning() {
     }
     let scene = strahl::scene::from_gltf_file(&path, None).unwrap().scene;
     let pbr = scene.materials.iter().find_map(|m| m.pbr.as_deref()).expect("a PBR material");
-    assert_eq!((pbr.clearcoat, pbr.clearcoat_roughness), (0.5, 0.25));
-    assert_eq!((pbr.sheen_color.to_array(), pbr.sheen_roughness), ([0.2, 0.3, 0.4], 0.6));
-    assert_eq!(pbr.specular, 0.7);
+    assert_eq!((pbr.factors.clearcoat, pbr.factors.clearcoat_roughness), (0.5, 0.25));
+    assert_eq!((pbr.factors.sheen_color.to_array(), pbr.factors.sheen_roughness), ([0.2, 0.3, 0.4], 0.6));
+    assert_eq!(pbr.factors.specular, 0.7);
     assert_eq!(
         (pbr.thickness, pbr.attenuation_color.to_array(), pbr.attenuation_distance),
         (0.1, [0.5, 0.25, 1.0], 2.0)

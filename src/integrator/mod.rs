@@ -126,7 +126,7 @@ pub trait Integrator: Sync {
     fn sampler(&self, spp: u32, pixel_index: u64, lens: bool) -> Self::Sampler;
 
     /// Shades one round: `out[i]` for the camera ray `rays[i]`, whose closest hit is `hits[i]`
-    /// and whose pixel's sampler is `samplers[i]` (begun for this round, the camera's
+    /// and whose pixel's sampler is `samplers[i]` (begun for the round's sample, the camera's
     /// numbers drawn). Adds the rays it traces to `counts`. Each pixel's sample must depend on
     /// nothing but that pixel's ray, hit and sampler, so that a render is the same for any
     /// split into tiles.

@@ -43,6 +43,7 @@ use super::gltf_instancing;
 use super::gltf_modes;
 use super::gltf_morph::{self, MeshSlots};
 use super::gltf_sparse;
+use crate::bsdf::PbrParams;
 use crate::light::Light;
 use crate::material::{Material, Pbr, TextureSlot};
 use crate::math::{Vec2, Vec3};
@@ -500,11 +501,14 @@ impl Reader<'_> {
         let [r, g, b, _] = pbr.base_color_factor();
         let [er, eg, eb] = material.emissive_factor();
         let mut out = Pbr {
-            base_color: Vec3::new(r, g, b),
-            metallic: pbr.metallic_factor(),
-            roughness: pbr.roughness_factor(),
+            factors: PbrParams {
+                base_color: Vec3::new(r, g, b),
+                metallic: pbr.metallic_factor(),
+                roughness: pbr.roughness_factor(),
+                ior: material.ior().unwrap_or(1.5),
+                ..PbrParams::default()
+            },
             emission: Vec3::new(er, eg, eb) * material.emissive_strength().unwrap_or(1.0),
-            ior: material.ior().unwrap_or(1.5),
             unlit: material.unlit(),
             ..Pbr::default()
         };
@@ -537,7 +541,7 @@ impl Reader<'_> {
             self.warn(format!("{what}: alphaMode {:?} ignored (surfaces are opaque)", material.alpha_mode()));
         }
         if let Some(t) = material.transmission() {
-            out.transmission = t.transmission_factor();
+            out.factors.transmission = t.transmission_factor();
             if t.transmission_texture().is_some() {
                 self.warn(format!(
                     "{what}: KHR_materials_transmission: transmissionTexture ignored (transmissionFactor is used)"
@@ -553,8 +557,8 @@ impl Reader<'_> {
             }
         }
         if let Some(sp) = material.specular() {
-            out.specular = sp.specular_factor();
-            out.specular_color = Vec3::from(sp.specular_color_factor());
+            out.factors.specular = sp.specular_factor();
+            out.factors.specular_color = Vec3::from(sp.specular_color_factor());
             for (texture, name) in [
                 (sp.specular_texture().is_some(), "specularTexture"),
                 (sp.specular_color_texture().is_some(), "specularColorTexture"),
@@ -567,8 +571,8 @@ impl Reader<'_> {
         for (name, value) in material.extensions().into_iter().flatten() {
             match name.as_str() {
                 "KHR_materials_clearcoat" => {
-                    out.clearcoat = json_number(value, "clearcoatFactor", 0.0);
-                    out.clearcoat_roughness = json_number(value, "clearcoatRoughnessFactor", 0.0);
+                    out.factors.clearcoat = json_number(value, "clearcoatFactor", 0.0);
+                    out.factors.clearcoat_roughness = json_number(value, "clearcoatRoughnessFactor", 0.0);
                     self.warn_textures(
                         value,
                         name,
@@ -577,8 +581,8 @@ impl Reader<'_> {
                     );
                 }
                 "KHR_materials_sheen" => {
-                    out.sheen_color = json_colour(value, "sheenColorFactor", Vec3::ZERO);
-                    out.sheen_roughness = json_number(value, "sheenRoughnessFactor", 0.0);
+                    out.factors.sheen_color = json_colour(value, "sheenColorFactor", Vec3::ZERO);
+                    out.factors.sheen_roughness = json_number(value, "sheenRoughnessFactor", 0.0);
                     self.warn_textures(value, name, &["sheenColorTexture", "sheenRoughnessTexture"], what);
                 }
                 other => self.warn(format!("{what}: extension {other} is not supported; ignored")),

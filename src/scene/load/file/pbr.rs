@@ -15,6 +15,7 @@
 use std::path::Path;
 
 use super::{MaterialFile, Problem, Triple, at, color, number};
+use crate::bsdf::PbrParams;
 use crate::material::{Material, Pbr, TextureSlot};
 use crate::math::Vec3;
 use crate::texture::{Encoding, ImageTexture, Wrap, open_shared_as};
@@ -96,10 +97,19 @@ pub(super) fn material(m: &MaterialFile, name: &str, base: &Path) -> Result<Opti
         }
     };
     let pbr = Pbr {
-        base_color: colour(&m.base_color, "base_color", Vec3::ONE, Some(1.0))?,
+        factors: PbrParams {
+            base_color: colour(&m.base_color, "base_color", Vec3::ONE, Some(1.0))?,
+            metallic: unit(&m.metallic, "metallic", 0.0)?,
+            roughness: unit(&m.roughness, "roughness", 1.0)?,
+            ior,
+            transmission,
+            clearcoat: unit(&m.clearcoat, "clearcoat", 0.0)?,
+            clearcoat_roughness: unit(&m.clearcoat_roughness, "clearcoat_roughness", 0.0)?,
+            sheen_color: colour(&m.sheen_color, "sheen_color", Vec3::ZERO, Some(1.0))?,
+            sheen_roughness: unit(&m.sheen_roughness, "sheen_roughness", 0.0)?,
+            ..PbrParams::default()
+        },
         base_color_texture: texture(&m.base_color_texture, "base_color_texture", Encoding::Srgb)?,
-        metallic: unit(&m.metallic, "metallic", 0.0)?,
-        roughness: unit(&m.roughness, "roughness", 1.0)?,
         metallic_roughness_texture: texture(
             &m.metallic_roughness_texture,
             "metallic_roughness_texture",
@@ -107,12 +117,6 @@ pub(super) fn material(m: &MaterialFile, name: &str, base: &Path) -> Result<Opti
         )?,
         emission: colour(&m.emission, "emission", Vec3::ZERO, None)?,
         emissive_texture: texture(&m.emission_texture, "emission_texture", Encoding::Srgb)?,
-        ior,
-        transmission,
-        clearcoat: unit(&m.clearcoat, "clearcoat", 0.0)?,
-        clearcoat_roughness: unit(&m.clearcoat_roughness, "clearcoat_roughness", 0.0)?,
-        sheen_color: colour(&m.sheen_color, "sheen_color", Vec3::ZERO, Some(1.0))?,
-        sheen_roughness: unit(&m.sheen_roughness, "sheen_roughness", 0.0)?,
         ..Pbr::default()
     };
     Ok(Some(Material { pbr: Some(Box::new(pbr.clone())), ..pbr.lecture_form(name.to_string()) }))
