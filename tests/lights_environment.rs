@@ -26,17 +26,14 @@ fn scene(toml: &str) -> Scene {
     scene_in(toml, Path::new(""))
 }
 
-/// Mean and standard error of each channel over the pixels where `keep` holds.
+/// Mean and standard error of each channel over the pixels.
 fn stats(scene: &Scene) -> ([f64; 3], [f64; 3]) {
     let (film, _) = common::render(scene);
-    let n = film.rgba.len() as f64;
     let mut mean = [0.0; 3];
     let mut se = [0.0; 3];
     for c in 0..3 {
         let v: Vec<f64> = film.rgba.iter().map(|p| p[c] as f64).collect();
-        mean[c] = v.iter().sum::<f64>() / n;
-        let var = v.iter().map(|x| (x - mean[c]).powi(2)).sum::<f64>() / (n - 1.0);
-        se[c] = (var / n).sqrt();
+        (mean[c], se[c]) = common::mean_and_error(&v);
     }
     (mean, se)
 }

@@ -21,15 +21,6 @@ fn scene(toml: &str) -> Scene {
     strahl::scene::load::file::from_toml_str(toml, Path::new("closed-form.toml")).unwrap().scene
 }
 
-/// The mean of the red channel over all pixels, and its standard error (pixels are
-/// independent estimates of the same value).
-fn mean_and_error(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
-}
-
 fn red(scene: &Scene) -> Vec<f64> {
     let (film, _) = common::render(scene);
     film.rgba.iter().map(|p| p[0] as f64).collect()
@@ -69,7 +60,7 @@ fn a_closed_emitting_lambertian_enclosure_has_the_radiance_of_the_geometric_seri
     for (rho, depth, mesh_lights) in [(0.5, 1, true), (0.5, 2, true), (0.6, 6, true), (0.5, 2, false), (0.3, 5, false)]
     {
         let want = (1.0 - f64::powi(rho, depth as i32 + 1)) / (1.0 - rho);
-        let (mean, se) = mean_and_error(&red(&enclosure(rho, depth, mesh_lights)));
+        let (mean, se) = common::mean_and_error(&red(&enclosure(rho, depth, mesh_lights)));
         eprintln!("ρ {rho} depth {depth} NEE {mesh_lights}: {mean} ± {se} (exact {want})");
         assert!(
             (mean - want).abs() <= 3.0 * se + 1e-6,
@@ -88,7 +79,7 @@ fn the_clamp_limits_indirect_light_only() {
     // left is the direct light, L_e·(1 + ρ), unbiased, plus at most 0.002.
     let mut scene = enclosure(0.5, 2, true);
     scene.render.clamp = Some(1e-3);
-    let (mean, se) = mean_and_error(&red(&scene));
+    let (mean, se) = common::mean_and_error(&red(&scene));
     eprintln!("clamped: {mean} ± {se} (direct light 1.5, unclamped 1.75)");
     assert!(mean >= 1.5 - 3.0 * se && mean <= 1.502 + 3.0 * se, "{mean} ± {se}");
 }
@@ -160,7 +151,7 @@ fn direct_light_of_a_quad_on_a_plane_is_the_form_factor_and_whitteds() {
         let want = 0.8 * 5.0 * form_factor(-0.5, 0.5, -0.5, 0.5, 1.0, x, z);
         residuals.push(p[0] as f64 - want);
     }
-    let (bias, se) = mean_and_error(&residuals);
+    let (bias, se) = common::mean_and_error(&residuals);
     let mean_value = film.rgba.iter().map(|p| p[0] as f64).sum::<f64>() / film.rgba.len() as f64;
     eprintln!("path: mean {mean_value}, mean residual {bias} ± {se}");
     assert!(bias.abs() <= 3.0 * se + 1e-6 * mean_value, "path vs form factor: {bias} ± {se}");
@@ -169,7 +160,7 @@ fn direct_light_of_a_quad_on_a_plane_is_the_form_factor_and_whitteds() {
     // pixel: the mean of the differences within 3 of their standard errors.
     let whitted = red(&lit_plane("whitted", 16, 16));
     let diffs: Vec<f64> = red(&path).iter().zip(&whitted).map(|(p, w)| p - w).collect();
-    let (d, d_se) = mean_and_error(&diffs);
+    let (d, d_se) = common::mean_and_error(&diffs);
     eprintln!("path − whitted: {d} ± {d_se}");
     assert!(d.abs() <= 3.0 * d_se, "path − whitted: {d} ± {d_se}");
     assert!(d_se < 0.01 * mean_value, "too noisy to tell: ± {d_se}");
@@ -255,7 +246,7 @@ material = "mirror"
     let factor = (1.0 - r) / (1.0 + r);
     let values: Vec<f64> = film.rgba.iter().map(|p| p[0] as f64).collect();
     assert!(film.rgba.iter().all(|p| p.iter().all(|c| c.is_finite())));
-    let (mean, se) = mean_and_error(&values);
+    let (mean, se) = common::mean_and_error(&values);
     eprintln!("glass: {mean} ± {se}, on the axis {}", 4.0 * factor);
     // The pixels are not all on the axis: at 2° the outermost ray meets the sphere at
     // 3·tan(1°)/0.5 = 0.1 of its radius, where the transmission differs by < 0.1 %.

@@ -26,6 +26,15 @@ pub fn render(scene: &Scene) -> (Film, RayCounts) {
     integrator::render(scene, &accel(scene), &|_| {}).expect("the scene renders")
 }
 
+/// The mean of `values` and its standard error, the values being independent estimates of
+/// the same quantity (a converged image's pixels, say).
+pub fn mean_and_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
 /// `|a − b| / |b|`.
 pub fn rel(a: f32, b: f64) -> f64 {
     ((a as f64) - b).abs() / b.abs()
