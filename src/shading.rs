@@ -37,9 +37,6 @@ pub struct Shading {
     pub emission: Vec3,
     /// The medium inside the object, when its material absorbs.
     pub volume: Option<Volume>,
-    /// The surface's colour for the albedo pass: the base colour of a PBR material, ρ of a
-    /// lecture one.
-    pub first_hit_albedo: Vec3,
 }
 
 /// The BSDF, emission and volume of `sp` seen along `wo` (towards the viewer); `footprint`
@@ -60,16 +57,16 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, _wo: Vec3, _footprint: f32) ->
         };
         let bsdf = bsdf::lecture(&params, frame, sp.ng, sp.front_face);
         let emission = if one_sided_back { Vec3::ZERO } else { m.emission };
-        return Shading { bsdf, emission, volume: None, first_hit_albedo: sp.albedo };
+        return Shading { bsdf, emission, volume: None };
     };
     if pbr.unlit {
         let base = pbr.base_color_at(sp.uv, sp.color);
         let bsdf = Bsdf::new(frame, sp.ng, sp.front_face);
-        return Shading { bsdf, emission: base, volume: None, first_hit_albedo: base };
+        return Shading { bsdf, emission: base, volume: None };
     }
     let params = pbr.params_at(sp.uv, sp.color);
     let bsdf = bsdf::gltf(&params, frame, sp.ng, sp.front_face);
     let emission = if one_sided_back { Vec3::ZERO } else { pbr.emission_at(sp.uv) };
     let volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
-    Shading { bsdf, emission, volume, first_hit_albedo: params.base_color }
+    Shading { bsdf, emission, volume }
 }

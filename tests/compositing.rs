@@ -1,5 +1,5 @@
-//! The compositing EXR read back by readers strahl did not write: the light-path passes add up
-//! to the beauty on every shipped scene; alpha composites with `over` (oiiotool); the camera
+//! The compositing EXR read back by readers strahl did not write: Blender's recipe rebuilds
+//! the beauty from the light-path passes on every shipped scene, with either integrator; alpha composites with `over` (oiiotool); the camera
 //! matrices map the position pass back onto the depth pass; Cryptomatte decodes with Python's
 //! `mmh3` to the object-index coverage; `exrheader` and `oiiotool --stats` read every layout
 //! and option; `--half` files are smaller. Tests that need a tool skip with a message when it
@@ -35,10 +35,41 @@ fn have(tool: &str, probe: &[&str]) -> bool {
     ok
 }
 
-const LIGHT: [&str; 6] = ["Emit", "DiffDir", "GlossDir", "GlossInd", "TransInd", "Env"];
+/// Blender's families of light passes: (direct, indirect, colour).
+const FAMILIES: [[&str; 3]; 3] =
+    [["DiffDir", "DiffInd", "DiffCol"], ["GlossDir", "GlossInd", "GlossCol"], ["TransDir", "TransInd", "TransCol"]];
+
+/// Checks Blender's recipe on the file `out` (w × h): for every pixel and channel,
+/// Combined = Σ_families (Dir + Ind)·Col + Emit + Env, within `tol` relative; returns how many
+/// pixel channels held light and how many had light in each family.
+fn check_recipe(out: &Path, what: &str, tol: f64) -> (usize, [usize; 3]) {
+    let (w, h, ch) = read_exr(out);
+    let mut lit = 0;
+    let mut families = [0; 3];
+    for comp in ["R", "G", "B"] {
+        let get = |p: &str| channel(&ch, &format!("ViewLayer.{p}.{comp}"));
+        let beauty = get("Combined");
+        let (emit, env) = (get("Emit"), get("Env"));
+        for i in 0..w * h {
+            let mut sum = emit[i] as f64 + env[i] as f64;
+            for (k, [d, ind, c]) in FAMILIES.iter().enumerate() {
+                let term = (get(d)[i] as f64 + get(ind)[i] as f64) * get(c)[i] as f64;
+                families[k] += (term > 0.0) as usize;
+                sum += term;
+            }
+            let want = beauty[i] as f64;
+            assert!(
+                (sum - want).abs() <= tol * want.abs() + 1e-12,
+                "{what}: pixel {i} channel {comp}: Blender's recipe gives {sum}, Combined {want}"
+            );
+            lit += (want > 0.0) as usize;
+        }
+    }
+    (lit, families)
+}
 
 #[test]
-fn light_passes_sum_to_the_beauty_on_every_shipped_scene() {
+fn blenders_recipe_rebuilds_the_beauty_on_every_shipped_scene() {
     let dir = TempDir::new("sum");
     let mut scenes: Vec<PathBuf> = std::fs::read_dir(scene_path(""))
         .unwrap()
@@ -47,43 +78,62 @@ fn light_passes_sum_to_the_beauty_on_every_shipped_scene() {
         .collect();
     scenes.sort();
     assert!(scenes.len() >= 5, "{scenes:?}");
+    let mut families = [0; 3];
     for scene in &scenes {
-        for transparent in [false, true] {
-            let out = dir.path("sum.exr");
-            // The light-path passes are the Whitted integrator's: a path-traced scene
-            // (scenes/cornell-path.toml) is rendered by it here.
-            let mut extra = vec!["--passes", "all", "--threads", "2", "--integrator", "whitted"];
-            if transparent {
-                extra.push("--transparent");
-            }
-            render(scene, &out, 48, 36, &extra);
-            let (w, h, ch) = read_exr(&out);
-            let mut checked = 0;
-            for (c, comp) in ["R", "G", "B"].iter().enumerate() {
-                let beauty = channel(&ch, &format!("ViewLayer.Combined.{comp}"));
-                let passes: Vec<&[f32]> =
-                    LIGHT.iter().map(|p| channel(&ch, &format!("ViewLayer.{p}.{comp}"))).collect();
-                for i in 0..w * h {
-                    let sum: f64 = passes.iter().map(|p| p[i] as f64).sum();
-                    let want = beauty[i] as f64;
-                    assert!(
-                        (sum - want).abs() <= 1e-5 * want.abs() + 1e-12,
-                        "{}: pixel {i} channel {c}: passes sum to {sum}, beauty {want}",
-                        scene.display()
-                    );
-                    checked += (want > 0.0) as usize;
+        for integrator in ["whitted", "path"] {
+            for transparent in [false, true] {
+                let out = dir.path("sum.exr");
+                let mut extra = vec!["--passes", "all", "--threads", "2", "--integrator", integrator, "--spp", "4"];
+                if transparent {
+                    extra.push("--transparent");
                 }
-            }
-            assert!(checked > 0, "{}: a black image proves nothing", scene.display());
-            let a = channel(&ch, "ViewLayer.Combined.A");
-            if transparent {
-                let env = channel(&ch, "ViewLayer.Env.R");
-                assert!(env.iter().all(|&e| e == 0.0), "transparent: no background");
-            } else {
-                assert!(a.iter().all(|&a| a == 1.0), "{}: an opaque frame has A = 1", scene.display());
+                render(scene, &out, 48, 36, &extra);
+                let what =
+                    format!("{} ({integrator}{})", scene.display(), if transparent { ", transparent" } else { "" });
+                let (lit, f) = check_recipe(&out, &what, 1e-5);
+                assert!(lit > 0, "{what}: a black image proves nothing");
+                for k in 0..3 {
+                    families[k] += f[k];
+                }
+                let (_, _, ch) = read_exr(&out);
+                let a = channel(&ch, "ViewLayer.Combined.A");
+                if transparent {
+                    let env = channel(&ch, "ViewLayer.Env.R");
+                    assert!(env.iter().all(|&e| e == 0.0), "{what}: transparent, no background");
+                } else {
+                    assert!(a.iter().all(|&a| a == 1.0), "{what}: an opaque frame has A = 1");
+                }
             }
         }
     }
+    // The shipped scenes hold diffuse, glossy (mirrors, highlights) and glass surfaces.
+    assert!(families.iter().all(|&n| n > 100), "pixel channels lit per family: {families:?}");
+}
+
+/// The path tracer's split on its Cornell box: every family holds light (walls, the mirror
+/// sphere, the glass sphere), the closed box shows no environment, and on the white walls
+/// both the direct light and the interreflections are there, the second a part of the first.
+#[test]
+fn the_path_tracers_passes_split_the_cornell_box_as_blender_does() {
+    let dir = TempDir::new("cornell-split");
+    let out = dir.path("c.exr");
+    render(
+        &scene_path("cornell-path.toml"),
+        &out,
+        32,
+        32,
+        &["--passes", "light", "--spp", "64", "--integrator", "path"],
+    );
+    let (lit, families) = check_recipe(&out, "cornell-path", 1e-5);
+    assert!(lit > 2500 && families.iter().all(|&n| n > 20), "lit {lit}, per family {families:?}");
+    let (w, h, ch) = read_exr(&out);
+    let get = |p: &str| channel(&ch, &format!("ViewLayer.{p}.G"));
+    assert!(get("Env").iter().all(|&v| v == 0.0), "the box is closed and its background 0");
+    let white = |i: usize| (get("DiffCol")[i] - 0.71).abs() < 1e-6;
+    let direct: f64 = (0..w * h).filter(|&i| white(i)).map(|i| get("DiffDir")[i] as f64).sum();
+    let indirect: f64 = (0..w * h).filter(|&i| white(i)).map(|i| get("DiffInd")[i] as f64).sum();
+    println!("white walls: DiffDir sum {direct}, DiffInd sum {indirect}");
+    assert!(direct > 0.0 && indirect > 0.1 * direct && indirect < direct, "direct {direct}, indirect {indirect}");
 }
 
 #[test]
@@ -304,7 +354,7 @@ fn the_output_table_chooses_passes_alpha_and_levels() {
     assert!(!out.passes.contains(strahl::output::passes::Pass::Position));
     let e = strahl::scene::from_toml_str(&format!("{base}[output]\npasses = [\"beauty\"]\n"), path).unwrap_err();
     assert!(
-        e.to_string().starts_with("s.toml:6:10: output: unknown pass 'beauty' (known: default, all, combined"),
+        e.to_string().starts_with("s.toml:6:10: output: unknown pass 'beauty' (known: default, all, light, diffuse, glossy, transmission, combined"),
         "{e}"
     );
     let e = strahl::scene::from_toml_str(&format!("{base}[output]\ncryptomatte_levels = 0\n"), path).unwrap_err();

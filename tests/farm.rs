@@ -514,7 +514,7 @@ fn render_options_every_task_would_refuse_are_refused_before_anything_is_written
         (&[], &["--threads", "4"], "give --cpus 4 instead"),
         (&["--tiles", "31"], &size, "--tiles 31 is more than the image's 30 rows"),
         (&[], &["--exposure", "inf"], "--exposure inf is not a finite number"),
-        (&[], &["--integrator", "path", "--passes", "all"], "the emission pass is the Whitted integrator's"),
+        (&[], &["--integrator", "path", "--spp", "70000"], "spp 70000 is more than the 65536 samples per pixel"),
         (&[], &["--integrator", "path", "--clamp", "0"], "clamp 0 must be finite and > 0"),
         (&[], &["--checkpoint-every", "-1"], "--checkpoint-every -1 is not a number of seconds"),
         (&[], &["--checkpoint-every", "1e20"], "-- --checkpoint-every 1e20 is not a number of seconds from 0 to 1e9"),

@@ -320,7 +320,7 @@ fn camera_rays<S: PixelSamples>(
 }
 
 /// Checks the `[render]` settings against the rest of the scene: the clamp, and for the path
-/// tracer the samples its Sobol sequence holds and the passes it writes. Part of
+/// tracer the samples its Sobol sequence holds. Part of
 /// [`check_scene`]; also called by a job before anything is loaded or built.
 pub fn check_render(scene: &Scene) -> Result<(), RenderError> {
     if let Some(problem) = scene.render.problem() {
@@ -329,14 +329,6 @@ pub fn check_render(scene: &Scene) -> Result<(), RenderError> {
     if scene.render.integrator == IntegratorKind::Path {
         if let Err(problem) = crate::sampling::sobol::check_spp(scene.image.spp) {
             return Err(RenderError::InvalidScene(format!("image: {problem}")));
-        }
-        if let Some(p) = scene.output.passes.iter().find(|p| p.is_light()) {
-            let problem = format!(
-                "the {} pass is the Whitted integrator's; with --integrator path strahl writes combined \
-                 and the first-hit passes (depth, normal, albedo, position, indices, Cryptomatte)",
-                p.name()
-            );
-            return Err(RenderError::InvalidScene(format!("passes: {problem}")));
         }
     }
     Ok(())

@@ -47,16 +47,23 @@
 //! surface to the side the ray leaves on ([`offset_ray_origin`]), and shadow rays end just
 //! short of their light point ([`SHADOW_TFAR_SCALE`]).
 //!
-//! **Passes.** The beauty, and the first-hit passes (depth, normal, albedo, position, object
-//! and material indices, Cryptomatte) of the camera ray's hit. The light-path passes are the
-//! Whitted integrator's and are refused with this one ([`super::check_scene`]).
+//! **Passes.** The beauty, the first-hit passes (depth, normal, the lobe families' colours
+//! `Bsdf::colors`, position, object and material indices, Cryptomatte) of the camera ray's hit,
+//! and the light-path passes as Cycles splits a path ([`crate::output::passes`]): the first
+//! hit's emission is Emit and the environment a camera ray sees is Env; light that NEE brings
+//! to the first hit is direct, split by the lobe families of `f`; the first hit's BSDF sample
+//! gives the path its family (all to the sampled lobe's family for a specular sample, else
+//! each family's share of `f` at the sampled direction, per channel), and emission or
+//! environment its ray finds is that family's direct light, everything after it (NEE at later
+//! vertices, emission and environment found by later rays) that family's indirect light. The
+//! split costs one BSDF evaluation per sample, made only when a light-path pass is written.
 
 use super::lights::SHADOW_TFAR_SCALE;
 use super::path_lights::PathLights;
 use super::pixel::{CameraSample, FirstHit, Radiance};
 use super::{Integrator, PixelSamples, RayCounts};
 use crate::accel::{Accel, Hit, TraceError};
-use crate::bsdf::LobeFlags;
+use crate::bsdf::{BsdfEval, LobeFlags};
 use crate::math::{Ray, Vec2, Vec3, offset_ray_origin};
 use crate::sampling::sobol::{CAMERA_DIMS, Sobol};
 use crate::scene::Scene;
@@ -71,6 +78,8 @@ pub struct PathTracer<'a, A: Accel> {
     pub scene: &'a Scene,
     pub accel: &'a A,
     lights: PathLights<'a>,
+    /// Whether the light-path passes are written (the split costs a BSDF evaluation per sample).
+    split: bool,
 }
 
 /// A pixel's Sobol sequence, as the tile loop draws the camera ray from it.
@@ -121,8 +130,10 @@ impl<A: Accel> Integrator for PathTracer<'_, A> {
         out: &mut [CameraSample],
     ) -> Result<(), TraceError> {
         for (((ray, hit), s), o) in rays.iter().zip(hits).zip(samplers.iter_mut()).zip(out.iter_mut()) {
-            let (radiance, first) = self.radiance(ray, hit.as_ref(), s, counts)?;
-            *o = CameraSample { radiance, split: Radiance::default(), first };
+            let mut split = Radiance::default();
+            let want = self.split.then_some(&mut split);
+            let (radiance, first) = self.radiance(ray, hit.as_ref(), s, counts, want)?;
+            *o = CameraSample { radiance, split, first };
         }
         Ok(())
     }
@@ -131,45 +142,57 @@ impl<A: Accel> Integrator for PathTracer<'_, A> {
 impl<'a, A: Accel> PathTracer<'a, A> {
     /// The path tracer of `scene`, tracing through `accel`.
     pub fn new(scene: &'a Scene, accel: &'a A) -> Self {
-        PathTracer { scene, accel, lights: PathLights::new(scene) }
+        PathTracer { scene, accel, lights: PathLights::new(scene), split: scene.output.passes.any_light() }
     }
 
-    /// `c` added to `l`, clamped when it is indirect light and a clamp is set (module docs).
+    /// `c` added to `l`, clamped when it is indirect light and a clamp is set (module docs);
+    /// returns what was added.
     #[inline]
-    fn add(&self, l: &mut Vec3, c: Vec3, indirect: bool) {
-        match self.scene.render.clamp {
-            Some(max) if indirect && c.max_element() > max => *l += c * (max / c.max_element()),
-            _ => *l += c,
-        }
+    fn add(&self, l: &mut Vec3, c: Vec3, indirect: bool) -> Vec3 {
+        let c = match self.scene.render.clamp {
+            Some(max) if indirect && c.max_element() > max => c * (max / c.max_element()),
+            _ => c,
+        };
+        *l += c;
+        c
     }
 
     /// Adds what the ray that escaped after `depth` scatterings (from `prev`, as in
     /// [`Self::radiance`]) sees of the environment, weighted against NEE's sampling of it;
     /// camera rays of a `transparent` render see 0.
-    fn add_environment(&self, l: &mut Vec3, beta: Vec3, ray: &Ray, prev: Option<(Vec3, Vec3, f32)>, depth: u32) {
+    fn add_environment(
+        &self,
+        l: &mut Vec3,
+        beta: Vec3,
+        ray: &Ray,
+        prev: Option<(Vec3, Vec3, f32)>,
+        depth: u32,
+    ) -> Vec3 {
         if depth == 0 && self.scene.output.transparent {
-            return;
+            return Vec3::ZERO;
         }
         let wi = ray.dir.normalize();
         let le = self.lights.environment(wi);
         if le == Vec3::ZERO {
-            return;
+            return Vec3::ZERO;
         }
         let w = match prev {
             None => 1.0,
             Some((p, n, pdf_bsdf)) => power_heuristic(pdf_bsdf, self.lights.pdf_environment(p, n, wi)),
         };
-        self.add(l, beta * le * w, depth >= 2);
+        self.add(l, beta * le * w, depth >= 2)
     }
 
     /// The radiance along the camera ray `ray` whose closest hit is `hit`, drawing from the
-    /// pixel's sampler `s` (begun for this sample), and what the AOVs record of that hit.
+    /// pixel's sampler `s` (begun for this sample), and what the AOVs record of that hit; with
+    /// `split`, the same radiance split into the light-path passes' terms (module docs).
     pub fn radiance(
         &self,
         ray: &Ray,
         hit: Option<&Hit>,
         s: &mut Sobol,
         counts: &mut RayCounts,
+        mut split: Option<&mut Radiance>,
     ) -> Result<(Vec3, Option<FirstHit>), TraceError> {
         let scene = self.scene;
         let max_depth = scene.image.max_depth;
@@ -184,27 +207,41 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut prev: Option<(Vec3, Vec3, f32)> = None;
         // σ_a of the absorbing object the ray travels inside, if any (module docs).
         let mut medium: Option<Vec3> = None;
+        // The lobe families the first hit's scattering went to, per channel (module docs).
+        let mut family = BsdfEval::default();
         let mut depth = 0u32;
         loop {
             if let Some(sigma_a) = medium {
                 beta *= transmittance(sigma_a, hit.map_or(f32::INFINITY, |h| h.t));
             }
             let Some(h) = hit else {
-                self.add_environment(&mut l, beta, &ray, prev, depth);
+                let c = self.add_environment(&mut l, beta, &ray, prev, depth);
+                if let Some(split) = split.as_deref_mut() {
+                    split.add_found(c, depth, &family);
+                    if depth == 0 {
+                        split.background = c;
+                    }
+                }
                 break;
             };
             let sp = SurfacePoint::new(scene, &ray, &h);
-            if depth == 0 {
-                first = Some(FirstHit::new(&sp, &h));
-            }
             let wo = -ray.dir;
             let shading = shade_at(scene, &sp, wo, 0.0);
+            if depth == 0 {
+                first = Some(FirstHit::new(&sp, &h, shading.bsdf.colors()));
+            }
             if shading.emission != Vec3::ZERO {
                 let w = match prev {
                     None => 1.0,
                     Some((p, n, pdf_bsdf)) => power_heuristic(pdf_bsdf, self.lights.pdf_hit(p, n, ray.dir, &h, &sp)),
                 };
-                self.add(&mut l, beta * shading.emission * w, depth >= 2);
+                let c = self.add(&mut l, beta * shading.emission * w, depth >= 2);
+                if let Some(split) = split.as_deref_mut() {
+                    split.add_found(c, depth, &family);
+                    if depth == 0 {
+                        split.emission = c;
+                    }
+                }
             }
             if depth >= max_depth {
                 break;
@@ -220,13 +257,26 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             // Next-event estimation.
             if bsdf.flags().intersects(LobeFlags::DIFFUSE | LobeFlags::GLOSSY) {
                 if let Some((ls, choice)) = self.lights.sample(sp.p, sp.ns, u_select, u_light) {
-                    let f = bsdf.eval(wo, ls.wi).sum() * ls.wi.dot(sp.ns).abs();
+                    let eval = bsdf.eval(wo, ls.wi);
+                    let cos = ls.wi.dot(sp.ns).abs();
+                    let f = eval.sum() * cos;
                     if f != Vec3::ZERO && ls.radiance != Vec3::ZERO {
                         counts.shadow += 1;
                         if !self.accel.occluded(&shadow_ray(&sp, &ls))? {
                             let p_light = choice * ls.pdf;
                             let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo, ls.wi)) };
-                            self.add(&mut l, beta * f * ls.radiance * (w / p_light), depth >= 1);
+                            let c = self.add(&mut l, beta * f * ls.radiance * (w / p_light), depth >= 1);
+                            if let Some(split) = split.as_deref_mut() {
+                                if depth == 0 {
+                                    // β = 1 and nothing is clamped at the first hit.
+                                    let weight = ls.radiance * (w / p_light);
+                                    split.direct.diffuse += eval.diffuse * cos * weight;
+                                    split.direct.glossy += eval.glossy * cos * weight;
+                                    split.direct.transmission += eval.transmission * cos * weight;
+                                } else {
+                                    add_by_family(&mut split.indirect, &family, c);
+                                }
+                            }
                         }
                     }
                 }
@@ -236,6 +286,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
             if !(bs.pdf > 0.0) || bs.f == Vec3::ZERO {
                 break;
+            }
+            if depth == 0 && split.is_some() {
+                family = families(bsdf, wo, &bs);
             }
             beta *= bs.f * (bs.wi.dot(sp.ns).abs() / bs.pdf);
             prev = if bs.flags.is_specular() { None } else { Some((sp.p, sp.ns, bs.pdf)) };
@@ -266,6 +319,49 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
         Ok((l, first))
     }
+}
+
+impl Radiance {
+    /// Adds `c`, emission or environment found by the ray that left vertex `depth − 1`, to the
+    /// direct (`depth = 1`) or indirect (`depth ≥ 2`) light of the first hit's `family`;
+    /// the camera ray's own (`depth = 0`) is the caller's.
+    fn add_found(&mut self, c: Vec3, depth: u32, family: &BsdfEval) {
+        match depth {
+            0 => {}
+            1 => add_by_family(&mut self.direct, family, c),
+            _ => add_by_family(&mut self.indirect, family, c),
+        }
+    }
+}
+
+/// `c` shared among the families by the per-channel fractions `family`.
+#[inline]
+fn add_by_family(out: &mut BsdfEval, family: &BsdfEval, c: Vec3) {
+    out.diffuse += c * family.diffuse;
+    out.glossy += c * family.glossy;
+    out.transmission += c * family.transmission;
+}
+
+/// The fractions, per channel, of the BSDF sample `bs` from `wo` that each lobe family
+/// scattered: all of it to the sampled lobe's family for a specular sample, else each family's
+/// share of `f` at the sampled direction (Cycles' `bsdf_eval_pass_*_weight`).
+fn families(bsdf: &crate::bsdf::Bsdf, wo: Vec3, bs: &crate::bsdf::BsdfSample) -> BsdfEval {
+    let mut out = BsdfEval::default();
+    if bs.flags.is_specular() {
+        out.add(bs.class, Vec3::ONE);
+        return out;
+    }
+    let e = bsdf.eval(wo, bs.wi);
+    let sum = e.sum();
+    let share = |v: Vec3| {
+        let div = |a: f32, b: f32| if b != 0.0 { a / b } else { 0.0 };
+        Vec3::new(div(v.x, sum.x), div(v.y, sum.y), div(v.z, sum.z))
+    };
+    if sum == Vec3::ZERO {
+        out.add(bs.class, Vec3::ONE);
+        return out;
+    }
+    BsdfEval { diffuse: share(e.diffuse), glossy: share(e.glossy), transmission: share(e.transmission) }
 }
 
 /// Beer–Lambert: the fraction `exp(−σ_a·t)` of radiance left after a distance `t` in a medium

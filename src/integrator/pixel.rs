@@ -11,11 +11,12 @@
 //! [`crate::output::film`]).
 
 use crate::accel::Hit;
+use crate::bsdf::{BsdfEval, PassClass};
 use crate::math::Vec3;
 use crate::output::cryptomatte;
 use crate::output::film::Film;
 use crate::output::ids::ObjectIds;
-use crate::output::passes::{LIGHT_PASSES, Pass};
+use crate::output::passes::{FAMILIES, LIGHT_PASSES, Pass};
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
 
@@ -28,28 +29,26 @@ pub struct CameraSample {
     pub first: Option<FirstHit>,
 }
 
-/// The radiance of a camera ray split into the terms of the shading formula
-/// ([`super::whitted`]); their sum is the beauty to float rounding. Each is in W/(m²·sr).
+/// The radiance of a camera ray split by what its first hit did with it (the light-path passes,
+/// [`crate::output::passes`]); their sum is the beauty to float rounding. Each is in W/(m²·sr)
+/// and still carries the first hit's colour (the film divides it out).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Radiance {
-    /// Emission `L_e` plus ambient `ρ·L_a` of the first hit.
+    /// Emission `L_e` of the first hit.
     pub emission: Vec3,
-    /// Direct light reflected by the Lambert lobe at the first hit.
-    pub diffuse: Vec3,
-    /// Direct light reflected by the Blinn–Phong highlight at the first hit.
-    pub specular: Vec3,
-    /// What the mirror and Fresnel reflection at the first hit bring, weighted.
-    pub reflection: Vec3,
-    /// What the refraction at the first hit brings, weighted.
-    pub transmission: Vec3,
-    /// The background radiance of a camera ray that hits nothing.
+    /// Light from lights and emitters scattered once, at the first hit, by lobe family.
+    pub direct: BsdfEval,
+    /// Light scattered more than once, by the family of the first hit's scattering.
+    pub indirect: BsdfEval,
+    /// The environment (background) radiance of a camera ray that hits nothing.
     pub background: Vec3,
 }
 
 impl Radiance {
     /// The terms in the order of [`LIGHT_PASSES`].
-    pub fn terms(&self) -> [Vec3; 6] {
-        [self.emission, self.diffuse, self.specular, self.reflection, self.transmission, self.background]
+    pub fn terms(&self) -> [Vec3; 8] {
+        let (d, i) = (&self.direct, &self.indirect);
+        [self.emission, d.diffuse, i.diffuse, d.glossy, i.glossy, d.transmission, i.transmission, self.background]
     }
 
     /// The sum of the terms.
@@ -65,8 +64,8 @@ pub struct FirstHit {
     pub t: f32,
     /// World-space unit shading normal, facing the eye.
     pub normal: Vec3,
-    /// Diffuse albedo.
-    pub albedo: Vec3,
+    /// The colours of the lobe families (`colors.diffuse` is the albedo pass).
+    pub colors: BsdfEval,
     /// World-space position.
     pub p: Vec3,
     /// The scene's material index.
@@ -76,9 +75,10 @@ pub struct FirstHit {
 }
 
 impl FirstHit {
-    /// What the AOVs record of the camera ray's `hit`, shaded as `sp`.
-    pub fn new(sp: &SurfacePoint, hit: &Hit) -> Self {
-        FirstHit { t: sp.t, normal: sp.ns, albedo: sp.albedo, p: sp.p, material: sp.material, hit: *hit }
+    /// What the AOVs record of the camera ray's `hit`, shaded as `sp`, whose lobe families
+    /// have the colours `colors`.
+    pub fn new(sp: &SurfacePoint, hit: &Hit, colors: BsdfEval) -> Self {
+        FirstHit { t: sp.t, normal: sp.ns, colors, p: sp.p, material: sp.material, hit: *hit }
     }
 }
 
@@ -86,16 +86,22 @@ impl FirstHit {
 #[derive(Clone, Debug, Default)]
 pub struct PixelAccumulator {
     radiance: Vec3,
-    split: [Vec3; 6],
+    split: [Vec3; 8],
     hits: u32,
     nearest: Option<FirstHit>,
     normal: Vec3,
-    albedo: Vec3,
+    colors: BsdfEval,
     /// (object, samples) and (material, samples), only when a Cryptomatte pass is on.
     objects: Vec<(u32, u32)>,
     materials: Vec<(u32, u32)>,
     /// Samples whose camera ray a second backend saw differently (the `disagreement` pass).
     disagreements: u32,
+}
+
+/// The lobe family whose colour divides a direct or indirect light pass.
+fn family(pass: Pass) -> Option<PassClass> {
+    let k = FAMILIES.iter().position(|&(d, i, _)| pass == d || pass == i)?;
+    Some([PassClass::Diffuse, PassClass::Glossy, PassClass::Transmission][k])
 }
 
 /// Adds one sample of `key` to a list of (key, count).
@@ -121,12 +127,30 @@ impl PixelAccumulator {
                 self.nearest = Some(f);
             }
             self.normal += f.normal;
-            self.albedo += f.albedo;
+            self.colors.diffuse += f.colors.diffuse;
+            self.colors.glossy += f.colors.glossy;
+            self.colors.transmission += f.colors.transmission;
             if let Some(object) = object {
                 count(&mut self.objects, object);
                 count(&mut self.materials, f.material);
             }
         }
+    }
+
+    /// The colour pass of family `class`: the mean over the hit samples (0 where none hit).
+    fn colour(&self, class: PassClass) -> Vec3 {
+        if self.hits == 0 { Vec3::ZERO } else { self.colors.get(class) / self.hits as f32 }
+    }
+
+    /// A light pass: the mean of its term over all `spp` samples, divided by its family's
+    /// colour pass for the direct and indirect passes (0 in a channel where that is 0).
+    fn light(&self, pass: Pass, spp: u32) -> Vec3 {
+        let k = LIGHT_PASSES.iter().position(|&p| p == pass).unwrap_or(0);
+        let mean = self.split[k] / spp as f32;
+        let Some(class) = family(pass) else { return mean };
+        let colour = self.colour(class);
+        let div = |l: f32, c: f32| if c != 0.0 { l / c } else { 0.0 };
+        Vec3::new(div(mean.x, colour.x), div(mean.y, colour.y), div(mean.z, colour.z))
     }
 
     /// Counts one sample whose camera ray's first hit a second backend finds differently.
@@ -151,16 +175,15 @@ impl PixelAccumulator {
                 *normal = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
             }
             if let Some(albedo) = film.albedo.get_mut(i) {
-                *albedo = self.albedo / self.hits as f32;
+                *albedo = self.colour(PassClass::Diffuse);
             }
         }
         for aov in &mut film.aovs {
             let out = &mut aov.data[i * aov.floats_per_pixel..(i + 1) * aov.floats_per_pixel];
             match aov.pass {
-                pass if pass.is_light() => {
-                    let k = LIGHT_PASSES.iter().position(|&p| p == pass).unwrap_or(0);
-                    out.copy_from_slice(&(self.split[k] / spp as f32).to_array());
-                }
+                pass if pass.is_light() => out.copy_from_slice(&self.light(pass, spp).to_array()),
+                Pass::GlossyColor => out.copy_from_slice(&self.colour(PassClass::Glossy).to_array()),
+                Pass::TransmissionColor => out.copy_from_slice(&self.colour(PassClass::Transmission).to_array()),
                 Pass::Position => {
                     out.copy_from_slice(&self.nearest.map_or(Vec3::ZERO, |f| f.p).to_array());
                 }

@@ -57,18 +57,22 @@
 //! shadow rays towards a point light end just short of it
 //! ([`super::lights::SHADOW_TFAR_SCALE`]).
 //!
-//! **Passes.** Shading the camera ray's hit also splits its radiance into the six terms of
-//! the formula ([`super::pixel::Radiance`]: emission + ambient, direct diffuse, direct
-//! specular, reflection, transmission, and the background of a camera ray that escapes), the
-//! light-path passes of [`crate::output::passes`]. The beauty is still summed as before, term
-//! by term in the same order, so the passes add up to it to float rounding and the beauty does
-//! not change.
+//! **Passes.** Shading the camera ray's hit also splits its radiance into the terms of the
+//! light-path passes ([`super::pixel::Radiance`], [`crate::output::passes`]): `L_e` is Emit;
+//! the Lambert term is DiffDir and the ambient `ρ·L_a` DiffInd (it stands in for indirect
+//! diffuse light); the Blinn–Phong highlight is GlossDir; everything seen in a mirror or by
+//! Fresnel reflection is GlossInd and everything seen through refraction TransInd (emitters and
+//! background included, where Cycles would count what one bounce reaches as direct); the
+//! background of a camera ray that escapes is Env. The family colours are [`colors`]. The beauty
+//! is still summed as before, term by term in the same order, so the passes add up to it to
+//! float rounding and the beauty does not change.
 
 use super::lights::{Lights, shadow_ray};
 use super::pixel::{CameraSample, FirstHit, Radiance};
 use super::shadow::ShadowBatch;
 use super::{Integrator, PixelSamples, RayCounts};
 use crate::accel::{Accel, Hit, TraceError};
+use crate::bsdf::BsdfEval;
 use crate::camera::Camera;
 use crate::light::Incidence;
 use crate::material::Material;
@@ -178,7 +182,7 @@ impl<A: Accel> Integrator for Whitted<'_, A> {
                         o.radiance,
                         Some(&mut o.split),
                     )?;
-                    Some(FirstHit::new(sp, hit))
+                    Some(FirstHit::new(sp, hit, colors(sp, &self.scene.materials[sp.material as usize])))
                 }
                 _ => None,
             };
@@ -229,7 +233,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
             return Ok((background, Radiance { background, ..Default::default() }, None));
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
-        let first = FirstHit::new(&sp, hit);
+        let first = FirstHit::new(&sp, hit, colors(&sp, &self.scene.materials[sp.material as usize]));
         let mut split = Radiance::default();
         let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, dims, counts, Some(&mut split))?;
         Ok((radiance, split, Some(first)))
@@ -301,15 +305,17 @@ impl<'a, A: Accel> Whitted<'a, A> {
     }
 
     /// Emission (from the front only, for a one-sided emitter) and ambient: a diffuse surface
-    /// under uniform radiance `L_a` reflects `ρ·L_a`. Sets `split.emission`.
+    /// under uniform radiance `L_a` reflects `ρ·L_a`. Sets `split.emission` and, the ambient
+    /// term standing in for indirect diffuse light, `split.indirect.diffuse`.
     fn emission(&self, sp: &SurfacePoint, split: Option<&mut Radiance>) -> Vec3 {
         let m = &self.scene.materials[sp.material as usize];
         let emission = if m.emission_one_sided && !sp.front_face { Vec3::ZERO } else { m.emission };
-        let l = emission + sp.albedo * self.scene.image.ambient;
+        let ambient = sp.albedo * self.scene.image.ambient;
         if let Some(split) = split {
-            split.emission = l;
+            split.emission = emission;
+            split.indirect.diffuse = ambient;
         }
-        l
+        emission + ambient
     }
 
     /// A camera ray's shading before its direct light: into `out`, the background when it
@@ -380,7 +386,7 @@ impl<'a, A: Accel> Whitted<'a, A> {
                 reflect_weight * self.trace(&reflected, depth + 1, throughput * reflect_weight, dims, counts)?;
             l += reflection;
             if let Some(split) = split.as_deref_mut() {
-                split.reflection = reflection;
+                split.indirect.glossy = reflection;
             }
         }
 
@@ -391,11 +397,19 @@ impl<'a, A: Accel> Whitted<'a, A> {
             let transmission = weight * self.trace(&refracted, depth + 1, throughput * weight, dims, counts)?;
             l += transmission;
             if let Some(split) = split {
-                split.transmission = transmission;
+                split.indirect.transmission = transmission;
             }
         }
         Ok(l)
     }
+}
+
+/// The colours of the lobe families at `sp` (the passes' `…Col`): ρ for the diffuse, `k_s + k_r`
+/// (`+ k_t` for a dielectric, whose Fresnel reflection is glossy) for the glossy and `k_t` for
+/// the transmitting family. Each term of the split is a multiple of its family's colour.
+fn colors(sp: &SurfacePoint, m: &Material) -> BsdfEval {
+    let kt = if m.is_dielectric() { m.transmission } else { Vec3::ZERO };
+    BsdfEval { diffuse: sp.albedo, glossy: m.specular + m.mirror + kt, transmission: kt }
 }
 
 /// Whether light reaching `sp` can be reflected towards the viewer (a diffuse or specular
@@ -420,7 +434,7 @@ fn add_direct(sp: &SurfacePoint, m: &Material, wo: Vec3, inc: &Incidence, l: &mu
     }
     *l += brdf * inc.normal_irradiance * cos;
     if let Some(split) = split {
-        split.diffuse += lambert * inc.normal_irradiance * cos;
-        split.specular += highlight * inc.normal_irradiance * cos;
+        split.direct.diffuse += lambert * inc.normal_irradiance * cos;
+        split.direct.glossy += highlight * inc.normal_irradiance * cos;
     }
 }

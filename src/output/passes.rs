@@ -1,23 +1,37 @@
 //! The passes (AOVs) a render can write, and which of them a render writes.
 //!
-//! The light-path passes split the beauty: for every pixel, to float rounding,
+//! The light-path passes follow Blender's meanings (Blender manual, "Render Passes"): the
+//! light a camera ray brings is split by what the first hit did with it — emitted it (`Emit`),
+//! or scattered it by a diffuse, glossy or transmitting lobe, directly from a light or an
+//! emitter (`…Dir`) or after more bounces (`…Ind`) — plus the environment camera rays see
+//! directly (`Env`). The direct and indirect passes are divided by their family's colour at the
+//! first hit (`…Col`), so that, for every pixel and channel, to float rounding,
 //!
 //! ```text
-//! Combined.RGB = Emit + DiffDir + GlossDir + GlossInd + TransInd + Env
+//! Combined.RGB = (DiffDir + DiffInd)·DiffCol + (GlossDir + GlossInd)·GlossCol
+//!              + (TransDir + TransInd)·TransCol + Emit + Env
 //! ```
+//!
+//! Blender's compositor recipe. Each integrator says which of its terms go where
+//! ([`crate::integrator::whitted`], [`crate::integrator::path`]); a `…Dir`/`…Ind` channel is 0
+//! where its colour is 0.
 //!
 //! | pass (`--passes` name) | Blender layer | meaning | unit |
 //! |---|---|---|---|
 //! | `combined` | `Combined` (RGBA) | the beauty; A is the alpha of [`crate::output::film`] | W/(m²·sr) |
 //! | `depth` | `Depth` (Z) | distance from the eye to the nearest first hit, `+inf` on a miss | scene units |
 //! | `normal` | `Normal` (XYZ) | world-space shading normal at the first hit | unit vector |
-//! | `albedo` | `DiffCol` (RGB) | diffuse albedo ρ at the first hit | 1 |
-//! | `emission` | `Emit` | emission `L_e` plus ambient `ρ·L_a` of the first hit | W/(m²·sr) |
-//! | `diffuse` | `DiffDir` | direct light reflected by the Lambert lobe (ρ/π) at the first hit | W/(m²·sr) |
-//! | `specular` | `GlossDir` | direct light reflected by the Blinn–Phong highlight at the first hit | W/(m²·sr) |
-//! | `reflection` | `GlossInd` | everything seen through mirror and Fresnel reflection at the first hit, weighted | W/(m²·sr) |
-//! | `transmission` | `TransInd` | everything seen through refraction at the first hit, weighted | W/(m²·sr) |
-//! | `background` | `Env` | the background radiance of camera rays that hit nothing | W/(m²·sr) |
+//! | `albedo` | `DiffCol` (RGB) | the colour of the first hit's diffuse lobes (ρ of a Lambert surface) | 1 |
+//! | `emission` | `Emit` | emission `L_e` of the first hit | W/(m²·sr) |
+//! | `diffuse_direct` | `DiffDir` | light from lights and emitters scattered once, by the first hit's diffuse lobes, ÷ DiffCol | W/(m²·sr) |
+//! | `diffuse_indirect` | `DiffInd` | light scattered more than once, first by the first hit's diffuse lobes, ÷ DiffCol | W/(m²·sr) |
+//! | `glossy_direct` | `GlossDir` | as `diffuse_direct`, for glossy and specular reflection | W/(m²·sr) |
+//! | `glossy_indirect` | `GlossInd` | as `diffuse_indirect`, for glossy and specular reflection | W/(m²·sr) |
+//! | `glossy_color` | `GlossCol` (RGB) | the colour of the first hit's glossy and specular reflection | 1 |
+//! | `transmission_direct` | `TransDir` | as `diffuse_direct`, for transmission | W/(m²·sr) |
+//! | `transmission_indirect` | `TransInd` | as `diffuse_indirect`, for transmission | W/(m²·sr) |
+//! | `transmission_color` | `TransCol` (RGB) | the colour of the first hit's transmission | 1 |
+//! | `background` | `Env` | the environment (background) radiance of camera rays that hit nothing | W/(m²·sr) |
 //! | `position` | `Position` (XYZ) | world position of the nearest first hit, 0 on a miss | scene units |
 //! | `object_index` | `IndexOB` (X) | 1 + the object's index in the object list (0 on a miss) | 1 |
 //! | `material_index` | `IndexMA` (X) | 1 + the material's index in the scene (0 on a miss) | 1 |
@@ -25,10 +39,14 @@
 //! | `crypto_material` | `CryptoMaterial00..` | Cryptomatte ranks of the materials | id, coverage |
 //! | `disagreement` | `Disagreement` (X) | the fraction of the pixel's camera rays whose first hit (primitive, or none) differs between Embree and the native BVH | 1 |
 //!
-//! Light passes are means over all of the pixel's samples, like the beauty; depth, position
-//! and the indices belong to the nearest hit sample; normal and albedo are means over the
-//! hit samples. What is seen through a mirror (background included) is reflection, not
-//! background: `Env` holds only what camera rays see directly.
+//! `--passes diffuse`, `glossy` and `transmission` name a family's three passes at once, and
+//! `light` every light-path pass with the colours.
+//!
+//! Emit, Env and the direct and indirect light (before the division) are means over all of
+//! the pixel's samples, like the beauty; depth, position and the indices belong to the nearest
+//! hit sample; normal and the colours are means over the hit samples (so the division undoes
+//! the colour exactly). What is seen through a mirror (background included) is glossy light,
+//! not background: `Env` holds only what camera rays see directly.
 //!
 //! `disagreement` traces every camera ray through both backends (the render's own and the
 //! other one, [`crate::accel::paired`]): it shows, in any render, where Embree and the native
@@ -46,10 +64,14 @@ pub enum Pass {
     Normal,
     Albedo,
     Emission,
-    Diffuse,
-    Specular,
-    Reflection,
-    Transmission,
+    DiffuseDirect,
+    DiffuseIndirect,
+    GlossyDirect,
+    GlossyIndirect,
+    GlossyColor,
+    TransmissionDirect,
+    TransmissionIndirect,
+    TransmissionColor,
     Background,
     Position,
     ObjectIndex,
@@ -59,22 +81,42 @@ pub enum Pass {
     Disagreement,
 }
 
-/// The light-path passes, in the order they are summed.
-pub const LIGHT_PASSES: [Pass; 6] =
-    [Pass::Emission, Pass::Diffuse, Pass::Specular, Pass::Reflection, Pass::Transmission, Pass::Background];
+/// The light-path passes that hold radiance, in the order of
+/// [`crate::integrator::Radiance::terms`].
+pub const LIGHT_PASSES: [Pass; 8] = [
+    Pass::Emission,
+    Pass::DiffuseDirect,
+    Pass::DiffuseIndirect,
+    Pass::GlossyDirect,
+    Pass::GlossyIndirect,
+    Pass::TransmissionDirect,
+    Pass::TransmissionIndirect,
+    Pass::Background,
+];
+
+/// The passes of each lobe family: (direct, indirect, colour), diffuse, glossy, transmission.
+pub const FAMILIES: [(Pass, Pass, Pass); 3] = [
+    (Pass::DiffuseDirect, Pass::DiffuseIndirect, Pass::Albedo),
+    (Pass::GlossyDirect, Pass::GlossyIndirect, Pass::GlossyColor),
+    (Pass::TransmissionDirect, Pass::TransmissionIndirect, Pass::TransmissionColor),
+];
 
 impl Pass {
     /// Every pass, in the order of the module docs (and of the channels in the film).
-    pub const ALL: [Pass; 16] = [
+    pub const ALL: [Pass; 20] = [
         Pass::Combined,
         Pass::Depth,
         Pass::Normal,
         Pass::Albedo,
         Pass::Emission,
-        Pass::Diffuse,
-        Pass::Specular,
-        Pass::Reflection,
-        Pass::Transmission,
+        Pass::DiffuseDirect,
+        Pass::DiffuseIndirect,
+        Pass::GlossyDirect,
+        Pass::GlossyIndirect,
+        Pass::GlossyColor,
+        Pass::TransmissionDirect,
+        Pass::TransmissionIndirect,
+        Pass::TransmissionColor,
         Pass::Background,
         Pass::Position,
         Pass::ObjectIndex,
@@ -92,10 +134,14 @@ impl Pass {
             Pass::Normal => "normal",
             Pass::Albedo => "albedo",
             Pass::Emission => "emission",
-            Pass::Diffuse => "diffuse",
-            Pass::Specular => "specular",
-            Pass::Reflection => "reflection",
-            Pass::Transmission => "transmission",
+            Pass::DiffuseDirect => "diffuse_direct",
+            Pass::DiffuseIndirect => "diffuse_indirect",
+            Pass::GlossyDirect => "glossy_direct",
+            Pass::GlossyIndirect => "glossy_indirect",
+            Pass::GlossyColor => "glossy_color",
+            Pass::TransmissionDirect => "transmission_direct",
+            Pass::TransmissionIndirect => "transmission_indirect",
+            Pass::TransmissionColor => "transmission_color",
             Pass::Background => "background",
             Pass::Position => "position",
             Pass::ObjectIndex => "object_index",
@@ -121,10 +167,15 @@ impl Pass {
         matches!(self, Pass::CryptoObject | Pass::CryptoMaterial)
     }
 
+    /// Whether this is a family's colour (`albedo`, `glossy_color`, `transmission_color`).
+    pub fn is_family_colour(self) -> bool {
+        matches!(self, Pass::Albedo | Pass::GlossyColor | Pass::TransmissionColor)
+    }
+
     /// Whether the pass is a colour (radiance or reflectance). `--half` stores these, and the
     /// normals, as half floats ([`crate::output::exr`]).
     pub fn is_colour(self) -> bool {
-        matches!(self, Pass::Combined | Pass::Albedo) || self.is_light()
+        self == Pass::Combined || self.is_light() || self.is_family_colour()
     }
 
     /// Floats per pixel in the film ([`crate::output::film::Film::aovs`]); `crypto_levels` ranks of
@@ -167,6 +218,11 @@ impl PassSet {
         PassSet(PassSet::of(&Pass::ALL).0 & !(1 << Pass::Disagreement as u32))
     }
 
+    /// This set and `passes`.
+    pub fn with(self, passes: &[Pass]) -> PassSet {
+        PassSet(self.0 | PassSet::of(passes).0)
+    }
+
     pub fn contains(self, pass: Pass) -> bool {
         self.0 & (1 << pass as u32) != 0
     }
@@ -190,11 +246,20 @@ impl PassSet {
             let more = match name {
                 "default" => PassSet::default(),
                 "all" => PassSet::all(),
+                "light" => PassSet::of(&LIGHT_PASSES).with(&[Pass::Albedo, Pass::GlossyColor, Pass::TransmissionColor]),
+                "diffuse" | "glossy" | "transmission" => {
+                    let (d, i, c) =
+                        FAMILIES[["diffuse", "glossy", "transmission"].iter().position(|&f| f == name).unwrap_or(0)];
+                    PassSet::of(&[d, i, c])
+                }
                 _ => match Pass::from_name(name) {
                     Some(p) => PassSet::of(&[p]),
                     None => {
                         let known: Vec<&str> = Pass::ALL.iter().map(|p| p.name()).collect();
-                        return Err(format!("unknown pass '{name}' (known: default, all, {})", known.join(", ")));
+                        return Err(format!(
+                            "unknown pass '{name}' (known: default, all, light, diffuse, glossy, transmission, {})",
+                            known.join(", ")
+                        ));
                     }
                 },
             };
@@ -239,6 +304,14 @@ mod tests {
         assert_eq!(PassSet::parse(&["all"]).unwrap(), PassSet::all());
         assert!(PassSet::parse(&["default", "nope"]).unwrap_err().starts_with("unknown pass 'nope'"));
         assert!(PassSet::default().contains(Pass::Albedo) && !PassSet::default().any_light());
+        let glossy = PassSet::parse(&["glossy"]).unwrap();
+        assert_eq!(
+            glossy.iter().collect::<Vec<_>>(),
+            [Pass::Combined, Pass::GlossyDirect, Pass::GlossyIndirect, Pass::GlossyColor]
+        );
+        let light = PassSet::parse(&["light"]).unwrap();
+        assert_eq!(light.iter().count(), 1 + 8 + 3);
+        assert!(PassSet::parse(&["specular"]).is_err());
     }
 
     #[test]
