@@ -136,6 +136,47 @@ fn the_path_tracers_passes_split_the_cornell_box_as_blender_does() {
     assert!(direct > 0.0 && indirect > 0.1 * direct && indirect < direct, "direct {direct}, indirect {indirect}");
 }
 
+/// `pxr24` rounds float32 to 24 bits: a file with Cryptomatte is written with ZIP instead, with
+/// a warning, so its ids are the bits a ZIP render stores; `b44` says that it leaves float32
+/// channels uncompressed.
+#[test]
+fn lossy_compression_never_touches_cryptomatte_ids() {
+    let dir = TempDir::new("lossy");
+    let scene = scene_path("whitted.toml");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path(name);
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(["--width", "48", "--height", "36", "--spp", "2", "--integrator", "whitted"]);
+        args.extend_from_slice(extra);
+        let o = strahl(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        (out, text(&o.stderr))
+    };
+    let crypto = ["--passes", "default,crypto_object,object_index"];
+    let (zip, _) = run("zip.exr", &crypto);
+    let (pxr, stderr) = run("pxr24.exr", &[&crypto[..], &["--compression", "pxr24"]].concat());
+    assert!(stderr.contains("pxr24 rounds float32 channels to 24 bits") && stderr.contains("writing ZIP"), "{stderr}");
+    let (_, _, a) = read_exr(&zip);
+    let (_, _, b) = read_exr(&pxr);
+    let mut compared = 0;
+    for (name, values) in &a {
+        if name.contains("Crypto") || name.contains("IndexOB") {
+            let other = channel(&b, name);
+            assert!(values.iter().zip(other).all(|(x, y)| x.to_bits() == y.to_bits()), "{name} changed");
+            compared += 1;
+        }
+    }
+    assert!(compared >= 7, "{compared} channels compared");
+    // Without ids, pxr24 is written as asked (and rounds the beauty).
+    let (plain, stderr) = run("plain.exr", &["--compression", "pxr24"]);
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let (_, _, p) = read_exr(&plain);
+    let (beauty, rounded) = (channel(&a, "ViewLayer.Combined.R"), channel(&p, "ViewLayer.Combined.R"));
+    assert!(beauty.iter().zip(rounded).any(|(x, y)| x != y), "pxr24 kept every bit: the test proves nothing");
+    let (_, stderr) = run("b44.exr", &["--compression", "b44"]);
+    assert!(stderr.contains("b44 compresses half channels only") && stderr.contains("depth"), "{stderr}");
+}
+
 #[test]
 fn transparent_over_a_plate_gives_the_plate_where_nothing_was_hit() {
     if !have("oiiotool", &["--version"]) {

@@ -257,6 +257,11 @@ impl RenderJob {
                  lecture's image)"
             ));
         }
+        if let Some(output) = &self.output {
+            if let Some(warning) = output.compression.for_output(&self.scene.output, output.half).1 {
+                (observer.note)(&format!("{}: {warning}", output.exr.display()));
+            }
+        }
         let build_start = Instant::now();
         let build_native = || {
             pool.install(|| Bvh::build(&self.scene)).with_context(|| format!("{shown}: cannot build the native BVH"))
@@ -362,7 +367,7 @@ impl RenderJob {
             crate::output::region::TILE_SIZE,
             self.backend.name(),
             output.layout,
-            output.compression.name(),
+            output.compression.for_output(&self.scene.output, output.half).0.name(),
             if output.half { "half" } else { "float" },
         )
     }
@@ -386,7 +391,7 @@ impl RenderJob {
         ExrOptions {
             layout: output.layout,
             half: output.half,
-            compression: output.compression,
+            compression: output.compression.for_output(&self.scene.output, output.half).0,
             attributes,
             object_names: ObjectIds::new(&self.scene).object_names,
             material_names: self.scene.materials.iter().map(|m| m.name.clone()).collect(),

@@ -35,8 +35,11 @@
 //! miniz_oxide (`flate2`'s default backend), 3.1 s, 91.1 MB. `flate2`'s zlib-rs backend measured
 //! no faster: 1920 × 1080 Whitted, 1 thread, output 0.43–0.62 s against 0.42–0.47 s, 25.2 MB
 //! against 24.6 MB); `none`, `rle`, `zips` (ZIP
-//! over single lines), `piz`, `pxr24` (lossy: float32 rounded to 24 bits), `b44`, `b44a`
-//! (lossy, half channels only): what the `exr` crate writes (it cannot write DWAA/DWAB).
+//! over single lines), `piz`, `pxr24` (lossy: float32 rounded to 24 bits; a file with
+//! Cryptomatte or index passes is written with ZIP instead, with a warning,
+//! [`Compression::for_output`]), `b44`, `b44a` (lossy, half channels only; float32 channels
+//! stored uncompressed, with a warning): what the `exr` crate writes (it cannot write
+//! DWAA/DWAB).
 //!
 //! `Z` is `+inf` (not 0 or a large finite number) for rays that escape: that is the true
 //! distance to the first hit, it sorts behind every surface in depth compositing, and it
@@ -122,6 +125,43 @@ impl Compression {
     /// The compression called `name` ([`Compression::name`]).
     pub fn from_name(name: &str) -> Option<Compression> {
         Compression::ALL.iter().find(|(_, n)| *n == name).map(|(c, _)| *c)
+    }
+
+    /// The compression a file of `output`'s passes is written with when `self` is asked for,
+    /// and the warning to print when that differs or hides something. EXR compresses a whole
+    /// part alike, and `pxr24` rounds float32 to 24 bits: Cryptomatte ids are float bit
+    /// patterns (and object or material indices above 2¹⁵ would round), so a file with them is
+    /// written with ZIP instead (lossless, what Blender's mattes need). `b44`/`b44a` compress
+    /// only half channels: the float32 ones (depth, position, indices, Cryptomatte, every
+    /// channel without `--half`) are stored uncompressed, which the warning says.
+    pub fn for_output(self, output: &OutputSpec, half: bool) -> (Compression, Option<String>) {
+        let exact =
+            output.passes.iter().find(|p| p.is_crypto() || matches!(p, Pass::ObjectIndex | Pass::MaterialIndex));
+        match (self, exact) {
+            (Compression::Pxr24, Some(pass)) => (
+                Compression::Zip,
+                Some(format!(
+                    "warning: --compression pxr24 rounds float32 channels to 24 bits, which would destroy the {pass}                      pass's ids: writing ZIP (lossless) instead"
+                )),
+            ),
+            (Compression::B44 | Compression::B44a, _) => {
+                let float: Vec<&str> = output
+                    .passes
+                    .iter()
+                    .filter(|&p| !(half && (p.is_colour() || p == Pass::Normal)))
+                    .map(Pass::name)
+                    .collect();
+                let note = (!float.is_empty()).then(|| {
+                    format!(
+                        "warning: --compression {} compresses half channels only; the float32 channels of {} are                          stored uncompressed",
+                        self.name(),
+                        float.join(", ")
+                    )
+                });
+                (self, note)
+            }
+            _ => (self, None),
+        }
     }
 
     fn to_exr(self) -> exr::compression::Compression {
