@@ -312,12 +312,30 @@ fn blender_lists_the_passes_by_name() {
     let stdout = text(&o.stdout);
     assert!(o.status.success(), "{stdout}\n{}", text(&o.stderr));
     let line = stdout.lines().find(|l| l.starts_with("PASSES ")).unwrap_or_else(|| panic!("{stdout}"));
-    for pass in
-        ["Combined", "Depth", "Normal", "DiffCol", "Emit", "GlossInd", "Env", "Position", "IndexOB", "CryptoObject00"]
-    {
+    for pass in [
+        "Combined",
+        "Depth",
+        "Normal",
+        "DiffCol",
+        "Emit",
+        "DiffDir",
+        "DiffInd",
+        "GlossDir",
+        "GlossInd",
+        "GlossCol",
+        "TransDir",
+        "TransInd",
+        "TransCol",
+        "Env",
+        "Position",
+        "IndexOB",
+        "CryptoObject00",
+    ] {
         assert!(line.split(' ').any(|p| p == pass), "{pass} missing from {line}");
     }
     assert!(stdout.contains("MATTE OK"), "{stdout}");
+    // Blender's recipe, built from Mix nodes in Blender's compositor, rebuilds Combined.
+    assert!(stdout.contains("RECIPE OK"), "{stdout}");
 }
 
 #[test]

@@ -281,6 +281,29 @@ fn glb_and_gltf_with_base64_load_the_same() {
     assert!(same_bits(&render(&a).0, &render(&b).0));
 }
 
+/// Objects and materials carry the names Blender's glTF importer gives them (so Cycles'
+/// Cryptomatte names): a node by its name, else by its mesh's (`Mesh_N` unnamed); a material by
+/// its name (`Material_N` unnamed), without the file's name; the same for `.gltf` and `.glb`.
+#[test]
+fn objects_and_materials_are_named_as_blenders_importer_names_them() {
+    let dir = TempDir::new("gltf-names");
+    let (mut g, _) = hierarchy_scene();
+    // The quad's node (the parent, the last mesh node added) is named; the triangle's is not.
+    let parent = g.nodes.iter().position(|n| n.contains("children")).unwrap();
+    g.nodes[parent] = g.nodes[parent].replacen('{', r#"{"name":"Floor","#, 1);
+    g.materials[1] = g.materials[1].replace(r#""name":"grey","#, "");
+    for file in ["n.gltf", "n.glb"] {
+        let path = if file.ends_with("glb") { dir.write(file, g.glb()) } else { dir.write(file, g.json()) };
+        let scene = from_gltf_file(&path, None).unwrap().scene;
+        let ids = strahl::output::ids::ObjectIds::new(&scene);
+        let mut names = ids.object_names.clone();
+        names.sort();
+        assert_eq!(names, ["Floor", "Mesh_1"], "{file}");
+        let materials: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(materials, ["red", "Material_1"], "{file}");
+    }
+}
+
 #[test]
 fn a_gltf_object_in_a_toml_scene_takes_its_transform() {
     let dir = TempDir::new("gltf-object");

@@ -689,10 +689,12 @@ mod tests {
         let image = read(&encode(&f, &ExrOptions { half: true, ..Default::default() }, 1).unwrap());
         for c in &image.layer_data[0].channel_data.list {
             let is_half = matches!(c.sample_data, FlatSamples::F16(_));
-            let colour =
-                ["Combined", "DiffCol", "Emit", "DiffDir", "GlossDir", "GlossInd", "TransInd", "Env", "Normal"]
-                    .iter()
-                    .any(|p| c.name.to_string().starts_with(&format!("{VIEW_LAYER}.{p}.")));
+            let colour = [
+                "Combined", "DiffCol", "Emit", "DiffDir", "DiffInd", "GlossDir", "GlossInd", "GlossCol", "TransDir",
+                "TransInd", "TransCol", "Env", "Normal",
+            ]
+            .iter()
+            .any(|p| c.name.to_string().starts_with(&format!("{VIEW_LAYER}.{p}.")));
             assert_eq!(is_half, colour, "{}", c.name);
         }
     }

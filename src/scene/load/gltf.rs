@@ -56,6 +56,8 @@ use crate::texture::{Encoding, Image, ImageTexture, Wrap, open_shared_as};
 pub struct MeshNode {
     /// The glTF node's index.
     pub node: usize,
+    /// The glTF node's name, if it has one.
+    pub name: Option<String>,
     pub mesh: usize,
     /// The instance's index in the node's `EXT_mesh_gpu_instancing` accessors, if it has them.
     pub instance: Option<usize>,
@@ -483,7 +485,8 @@ impl Reader<'_> {
         for material in doc.materials() {
             let i = material.index().unwrap_or(0);
             let what = format!("material {i}");
-            let name = material.name().map_or_else(|| what.clone(), str::to_string);
+            // Blender's importer's name for an unnamed material.
+            let name = material.name().map_or_else(|| format!("Material_{i}"), str::to_string);
             let pbr = self.pbr(&material, &what)?;
             let m = Material { pbr: Some(Box::new(pbr.clone())), ..pbr.lecture_form(name) };
             if let Some(problem) = m.problem() {
@@ -794,7 +797,8 @@ impl Reader<'_> {
     /// Places mesh slot `mesh` by `node`: once, or once per `EXT_mesh_gpu_instancing` instance.
     fn place(&mut self, node: &gltf::Node, mesh: usize, world: &Transform) -> Result<(), String> {
         let Some(inst) = self.instancing.get(&node.index()) else {
-            self.out.nodes.push(MeshNode { node: node.index(), mesh, instance: None, transform: *world });
+            let name = node.name().map(str::to_string);
+            self.out.nodes.push(MeshNode { node: node.index(), name, mesh, instance: None, transform: *world });
             return Ok(());
         };
         let check =
@@ -802,7 +806,8 @@ impl Reader<'_> {
         let (placed, skipped) =
             gltf_instancing::instance_transforms(self.doc, self.buffers, node.index(), inst, check)?;
         for (k, t) in placed {
-            self.out.nodes.push(MeshNode { node: node.index(), mesh, instance: Some(k), transform: t.then(world) });
+            let (name, transform) = (node.name().map(str::to_string), t.then(world));
+            self.out.nodes.push(MeshNode { node: node.index(), name, mesh, instance: Some(k), transform });
         }
         if skipped > 0 {
             self.warn(format!(
@@ -876,7 +881,8 @@ impl Reader<'_> {
     /// `weights`, into one strahl mesh.
     fn mesh(&mut self, mesh: &gltf::Mesh, weights: &[f32]) -> Result<Mesh, String> {
         let mut out = Mesh {
-            name: mesh.name().map_or_else(|| format!("mesh {}", mesh.index()), str::to_string),
+            // Blender's importer's name for an unnamed mesh.
+            name: mesh.name().map_or_else(|| format!("Mesh_{}", mesh.index()), str::to_string),
             ..Mesh::default()
         };
         let (mut normals, mut colors, mut uvs) = (Vec::new(), Vec::new(), Vec::new());

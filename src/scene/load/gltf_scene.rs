@@ -3,8 +3,14 @@
 //!
 //! The file is read by [`crate::scene::load::gltf`]; here its meshes are placed in the world by their
 //! nodes (a mesh that several nodes use is stored once, as a prototype with an instance per
-//! node; see [`crate::scene::instance`]), its materials appended to the scene's under the names `FILE/NAME` (as a mesh file's
-//! are), its lights added. A lone glTF file also brings its camera (chosen by index, by its name or its node's name,
+//! node; see [`crate::scene::instance`]), its materials appended to the scene's, its lights added.
+//!
+//! **Names** (Cryptomatte, the index passes, `strahl info`) are those Blender's glTF importer
+//! gives, so that a matte picked by name in a Cycles render of the same file picks the same
+//! pixels in strahl's: an object is named by its node, else by its mesh (`Mesh_N` when that has
+//! no name either), a material by its name (`Material_N` when it has none). Materials of a glTF
+//! object in a TOML scene are named `FILE/NAME`, as a mesh file's are, so that two files'
+//! materials stay apart. A lone glTF file also brings its camera (chosen by index, by its name or its node's name,
 //! the first by default) and image size (640 pixels wide, the height from the camera's
 //! `aspectRatio`, else 480); without a camera it is framed as a lone mesh file is, and without
 //! lights it gets the **default light**, a directional light shining along the view direction
@@ -26,7 +32,8 @@ pub const DEFAULT_LIGHT_IRRADIANCE: f32 = std::f32::consts::PI;
 /// Adds what `file` (read from `path`) places to `scene`, every node's transform followed by
 /// `transform`; `material` replaces every material of the file when given. With
 /// `instance_all`, every mesh becomes a prototype (so that TOML `instance` objects can place
-/// the file again), else only meshes that several nodes use. Returns what was added, for
+/// the file again), else only meshes that several nodes use. With `prefix_materials` the
+/// materials are named `FILE/NAME` (module docs). Returns what was added, for
 /// `strahl info`, and the placements of the prototypes: (prototype, node transform).
 pub fn add_gltf(
     scene: &mut Scene,
@@ -35,13 +42,16 @@ pub fn add_gltf(
     transform: &Transform,
     material: Option<u32>,
     instance_all: bool,
+    prefix_materials: bool,
 ) -> (ObjectSummary, Vec<(u32, Transform)>) {
     let offset = scene.materials.len() as u32;
     if material.is_none() {
         let name = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into());
         for m in &file.materials {
             let mut m = m.clone();
-            m.name = format!("{name}/{}", m.name);
+            if prefix_materials {
+                m.name = format!("{name}/{}", m.name);
+            }
             scene.materials.push(m);
         }
     }
@@ -64,22 +74,19 @@ pub fn add_gltf(
     file.nodes.iter().for_each(|n| uses[n.mesh] += 1);
     let mut prototype_of: Vec<Option<u32>> = vec![None; file.meshes.len()];
     let mut placements = Vec::new();
-    let file_name = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into());
     for node in &file.nodes {
         let world = node.transform.then(transform);
+        let name = node.name.clone().unwrap_or_else(|| file.meshes[node.mesh].name.clone());
         if uses[node.mesh] > 1 || instance_all {
             let prototype = *prototype_of[node.mesh].get_or_insert_with(|| {
                 scene.prototypes.push(with_materials(file.meshes[node.mesh].clone()));
                 scene.prototypes.len() as u32 - 1
             });
-            let name = match node.instance {
-                Some(k) => format!("{file_name} node {} instance {k}", node.node),
-                None => format!("{file_name} node {}", node.node),
-            };
             scene.instances.push(Instance { name, prototype, transform: world, material: None });
             placements.push((prototype, node.transform));
         } else {
             let mut mesh = with_materials(file.meshes[node.mesh].clone());
+            mesh.name = name;
             world.apply_to_mesh(&mut mesh);
             scene.meshes.push(mesh);
         }
@@ -153,7 +160,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
     let file = load_gltf(path)?;
     let mut warnings = file.warnings.clone();
     let mut scene = Scene::default();
-    let (summary, _) = add_gltf(&mut scene, path, &file, &Transform::default(), None, false);
+    let (summary, _) = add_gltf(&mut scene, path, &file, &Transform::default(), None, false, false);
     let chosen = match camera {
         None => file.cameras.first(),
         Some(wanted) => Some(find_camera(&file.cameras, wanted).map_err(invalid)?),

@@ -393,8 +393,9 @@ impl ObjectFile {
                 let gltf = crate::scene::load::gltf::load_gltf(&file).map_err(|e| at(path.span(), e.to_string()))?;
                 let name = self.name.as_ref().map(|n| n.get_ref().clone());
                 let instanced = name.as_ref().is_some_and(|n| ctx.instanced.contains(n));
-                let (_, placements) =
-                    crate::scene::load::gltf_scene::add_gltf(scene, &file, &gltf, &transform, material, instanced);
+                let (_, placements) = crate::scene::load::gltf_scene::add_gltf(
+                    scene, &file, &gltf, &transform, material, instanced, true,
+                );
                 if let Some(name) = name.filter(|_| instanced) {
                     ctx.placements.borrow_mut().insert(name, placements);
                 }
