@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps build install demo test test-cycles test-embree4 test-gltf-blender test-mitsuba test-slurm forest scale fuzz bench clean
+.PHONY: all deps test-deps build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-slurm forest scale fuzz bench clean
 
 all: build
 
@@ -49,6 +49,17 @@ demo: install
 	  echo "rendering $$s -> out/$$n.exr, out/$$n.png"; \
 	  $(STRAHL) render $$s -o out/$$n.exr --png out/$$n.png || exit 1; \
 	done
+
+# The Blender add-on (blender/strahl_engine: the render engine "strahl") as out/strahl_engine.zip,
+# for Edit > Preferences > Add-ons > Install (README, "Rendering from Blender"). Python's own
+# zipfile, so no zip tool is needed; __pycache__ is left out.
+blender-addon:
+	@mkdir -p out
+	@python3 -c 'import pathlib, sys, zipfile; src = pathlib.Path("blender/strahl_engine"); \
+	  files = sorted(p for p in src.rglob("*.py") if "__pycache__" not in p.parts); \
+	  z = zipfile.ZipFile("out/strahl_engine.zip", "w", zipfile.ZIP_DEFLATED); \
+	  [z.write(p, p.relative_to(src.parent)) for p in files]; z.close(); \
+	  print("wrote out/strahl_engine.zip:", ", ".join(str(p.relative_to(src.parent)) for p in files))'
 
 # Readers strahl did not write, which tests use to check its files (they skip, saying so, when a
 # tool is missing): exrheader (openexr), oiiotool (openimageio-tools), Python's OpenEXR, mmh3 and
