@@ -36,7 +36,7 @@ class StrahlSettings(bpy.types.PropertyGroup):
         ),
         default="path",
     )
-    samples: IntProperty(name="Samples", description="Samples per pixel", default=16, min=1, max=1 << 20)
+    samples: IntProperty(name="Samples", description="Samples per pixel (strahl takes up to 65536)", default=16, min=1, max=65536)
     max_depth: IntProperty(name="Max Depth", description="Longest chain of scattered rays", default=8, min=0, max=1024)
     threads: IntProperty(name="Threads", description="Worker threads; 0: one per core", default=0, min=0, max=4096)
     backend: EnumProperty(
