@@ -72,15 +72,19 @@ fn blender(dir: &Path, strahl_dir: Option<&Path>) -> Command {
             }
         }
     }
-    let strahl_dir = strahl_dir.map_or_else(|| Path::new(env!("CARGO_BIN_EXE_strahl")).parent().unwrap().to_path_buf(), Path::to_path_buf);
+    let strahl_dir = strahl_dir
+        .map_or_else(|| Path::new(env!("CARGO_BIN_EXE_strahl")).parent().unwrap().to_path_buf(), Path::to_path_buf);
     let path = std::env::join_paths(
         std::iter::once(strahl_dir).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
     )
     .unwrap();
     let mut cmd = Command::new("blender");
-    cmd.env("BLENDER_USER_SCRIPTS", &scripts)
-        .env("PATH", path)
-        .args(["-b", "--factory-startup", "--addons", "strahl_engine"]);
+    cmd.env("BLENDER_USER_SCRIPTS", &scripts).env("PATH", path).args([
+        "-b",
+        "--factory-startup",
+        "--addons",
+        "strahl_engine",
+    ]);
     cmd
 }
 
@@ -107,13 +111,25 @@ fn room() -> Option<&'static Room> {
             return None;
         }
         let dir = TempDir::new("blender-engine");
-        let out = blender(&dir.0, None).arg("--python").arg(repo("tools/blender/room.py")).arg("--").arg(&dir.0).output().unwrap();
+        let out = blender(&dir.0, None)
+            .arg("--python")
+            .arg(repo("tools/blender/room.py"))
+            .arg("--")
+            .arg(&dir.0)
+            .output()
+            .unwrap();
         check(&out, "tools/blender/room.py");
         let stdout = String::from_utf8_lossy(&out.stdout);
-        let camera = stdout.lines().find_map(|l| l.strip_prefix("CAMERA ")).expect("room.py prints the camera").trim().to_string();
+        let camera = stdout
+            .lines()
+            .find_map(|l| l.strip_prefix("CAMERA "))
+            .expect("room.py prints the camera")
+            .trim()
+            .to_string();
         let gltf = dir.path("reference/scene.gltf");
         let reference = dir.path("reference.exr");
-        let mut args = vec!["render".to_string(), gltf.display().to_string(), "-o".into(), reference.display().to_string()];
+        let mut args =
+            vec!["render".to_string(), gltf.display().to_string(), "-o".into(), reference.display().to_string()];
         args.extend(room_settings(&camera));
         let out = strahl(&args.iter().map(String::as_str).collect::<Vec<_>>());
         check(&out, "strahl render of the exported glTF file");
@@ -164,7 +180,8 @@ fn matte(reference: &Path, channels: &[(String, Vec<f32>)], name: &str) -> Vec<f
         .find(|(k, v)| k.to_string().ends_with("/name") && text(v) == "ViewLayer.CryptoObject")
         .map(|(k, _)| k.to_string().replace("/name", "/manifest"))
         .expect("a CryptoObject manifest");
-    let manifest: HashMap<String, String> = serde_json::from_str(&text(&attrs[&exr::meta::attribute::Text::from(manifest_key.as_str())])).unwrap();
+    let manifest: HashMap<String, String> =
+        serde_json::from_str(&text(&attrs[&exr::meta::attribute::Text::from(manifest_key.as_str())])).unwrap();
     let id = u32::from_str_radix(&manifest[name], 16).unwrap();
     let c = |s: &str| channel(channels, &format!("ViewLayer.CryptoObject00.{s}")).to_vec();
     let (r, g, b, a) = (c("r"), c("g"), c("b"), c("a"));
@@ -195,8 +212,21 @@ fn f12_render_is_strahls_own_render_with_the_passes_asked_for_and_composites() {
     let (got, want) = (view_layer(&blender), view_layer(&reference));
     let names: Vec<&str> = got.iter().map(|(n, _)| n.as_str()).collect();
     let expected = [
-        "Combined.A", "Combined.B", "Combined.G", "Combined.R", "CryptoObject00.a", "CryptoObject00.b", "CryptoObject00.g",
-        "CryptoObject00.r", "Depth.Z", "DiffCol.B", "DiffCol.G", "DiffCol.R", "Normal.X", "Normal.Y", "Normal.Z",
+        "Combined.A",
+        "Combined.B",
+        "Combined.G",
+        "Combined.R",
+        "CryptoObject00.a",
+        "CryptoObject00.b",
+        "CryptoObject00.g",
+        "CryptoObject00.r",
+        "Depth.Z",
+        "DiffCol.B",
+        "DiffCol.G",
+        "DiffCol.R",
+        "Normal.X",
+        "Normal.Y",
+        "Normal.Z",
     ]
     .map(|n| format!("ViewLayer.{n}"));
     assert_eq!(names, expected.iter().map(String::as_str).collect::<Vec<_>>());
@@ -218,7 +248,12 @@ fn f12_render_is_strahls_own_render_with_the_passes_asked_for_and_composites() {
         let magenta = [1.0f32, 0.0, 1.0][k];
         for i in 0..w * h {
             let want = diffcol[i] * (1.0 - m[i]) + magenta * m[i];
-            assert!((composite[i] - want).abs() <= 1e-6, "Composite.{s} at pixel {i}: {} != {want} (matte {})", composite[i], m[i]);
+            assert!(
+                (composite[i] - want).abs() <= 1e-6,
+                "Composite.{s} at pixel {i}: {} != {want} (matte {})",
+                composite[i],
+                m[i]
+            );
         }
     }
 }
@@ -236,7 +271,8 @@ fn border_render_with_crop_is_the_border_only() {
     let (_, _, reference) = read_exr(&room.reference);
     for (name, got) in view_layer(&blender) {
         let full = channel(&reference, &name);
-        let want: Vec<f32> = (0..24).flat_map(|y| (16..48).map(move |x| (y, x))).map(|(y, x)| full[y * WIDTH + x]).collect();
+        let want: Vec<f32> =
+            (0..24).flat_map(|y| (16..48).map(move |x| (y, x))).map(|(y, x)| full[y * WIDTH + x]).collect();
         assert_eq!(bits(&got), bits(&want), "{name}: the border differs from that part of the frame");
     }
 }
@@ -245,7 +281,8 @@ fn border_render_with_crop_is_the_border_only() {
 fn animation_renders_each_frame() {
     let Some(room) = room() else { return };
     let out = render(room, "animation", None, &["-s", "1", "-e", "3", "-a"]);
-    let mut files: Vec<String> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut files: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     files.sort();
     assert_eq!(files, ["frame_0001.exr", "frame_0002.exr", "frame_0003.exr"]);
     let frames: Vec<Vec<f32>> = files

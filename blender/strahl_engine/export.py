@@ -18,9 +18,8 @@ exactly as an Emission quad of strength 100 / (4 · 0.25), measured to 1e-5 in C
 strahl's emissive meshes light both sides, where Blender's area light lights its front (−z)
 only; the spread angle is ignored.
 
-The exporter writes the current frame (`export_current_frame`; by default it would jump to
-frame 0) as the view layer's own depsgraph has it, which an animation render does not move
-from frame to frame: that depsgraph is set to the rendered frame first (`follow_frame`).
+The exporter writes the frame being rendered (`export_current_frame`; by default it would
+set the scene to frame 0 and back, and an animation would export the wrong frames).
 
 The camera strahl looks through is the scene's active camera, passed by its index among the
 file's cameras (an object's name could read as an index).
@@ -54,7 +53,6 @@ def export_frame(scene, view_layer, depsgraph, directory):
     if windows:
         override.update(window=windows[0], screen=windows[0].screen)
     with bpy.context.temp_override(**override):
-        follow_frame(depsgraph)
         result = bpy.ops.export_scene.gltf(
             filepath=path,
             export_format="GLTF_SEPARATE",
@@ -78,17 +76,6 @@ def export_frame(scene, view_layer, depsgraph, directory):
     with open(path, "w") as f:
         json.dump(doc, f)
     return path, camera_index(doc, scene.camera.name)
-
-
-def follow_frame(depsgraph):
-    """Brings the view layer's own depsgraph, which the exporter reads, to the frame being
-    rendered: an animation render (`-a`) moves the render's depsgraph from frame to frame but
-    not that one, so without this every frame would export the first frame's scene."""
-    frame = depsgraph.scene_eval.frame_current
-    subframe = depsgraph.scene_eval.frame_subframe
-    current = bpy.context.evaluated_depsgraph_get().scene_eval
-    if (current.frame_current, current.frame_subframe) != (frame, subframe):
-        depsgraph.scene.frame_set(frame, subframe=subframe)
 
 
 def name_meshes_by_objects(doc):
