@@ -17,6 +17,8 @@
 //! - Cancelling (SIGINT to Blender, its Ctrl-C) leaves no strahl process: the add-on prints
 //!   strahl's PID, which must be gone once Blender has exited.
 //! - strahl's error reaches Blender as one report line.
+//! - A view layer of another name gets the passes; a camera named like options and shell
+//!   commands renders the same image and runs nothing.
 //!
 //! Skips, saying so, when Blender is not installed; `STRAHL_REQUIRE_BLENDER=1` makes that a
 //! failure.
@@ -58,7 +60,7 @@ fn blender_missing() -> bool {
     true
 }
 
-/// `blender -b --factory-startup` with the add-on installed (a copy of blender/strahl_engine
+/// `blender -b --factory-startup`, in `dir`, with the add-on installed (a copy of blender/strahl_engine
 /// in `dir`/scripts/addons) and enabled, and the tests' strahl first on PATH.
 fn blender(dir: &Path, strahl_dir: Option<&Path>) -> Command {
     let scripts = dir.join("scripts");
@@ -79,7 +81,7 @@ fn blender(dir: &Path, strahl_dir: Option<&Path>) -> Command {
     )
     .unwrap();
     let mut cmd = Command::new("blender");
-    cmd.env("BLENDER_USER_SCRIPTS", &scripts).env("PATH", path).args([
+    cmd.current_dir(dir).env("BLENDER_USER_SCRIPTS", &scripts).env("PATH", path).args([
         "-b",
         "--factory-startup",
         "--addons",
@@ -383,5 +385,22 @@ fn a_view_layer_of_another_name_gets_the_passes() {
     for (name, values) in got {
         let want = channel(&reference, &name.replacen("Beauty pass.", "ViewLayer.", 1));
         assert_eq!(bits(values), bits(want), "{name}");
+    }
+}
+
+#[test]
+fn hostile_names_reach_strahl_as_data() {
+    let Some(room) = room() else { return };
+    // A camera whose name reads as options and shell: the add-on passes the camera by index,
+    // and every value as an argument of its own, never through a shell.
+    let expr = r#"import bpy; bpy.context.scene.camera.name = "--spp=1 $(touch pwned) `touch pwned2`; '\" -o /tmp/x" + chr(10)"#;
+    let out = render(room, "hostile", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let (_, _, reference) = read_exr(&room.reference);
+    for (name, values) in view_layer(&blender) {
+        assert_eq!(bits(&values), bits(channel(&reference, &name)), "{name}");
+    }
+    for file in ["pwned", "pwned2"] {
+        assert!(!room.dir.path(file).exists(), "a shell ran the camera's name");
     }
 }
