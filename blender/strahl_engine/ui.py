@@ -1,0 +1,116 @@
+"""The settings strahl renders with and where they are edited: the scene's `strahl` settings
+(integrator, samples, max depth, threads, backend), the Render properties panel, a View Layer
+panel with the passes strahl writes, and the add-on preference naming the strahl binary
+(empty: `strahl` on PATH). Blender's own panels that apply to any engine (dimensions, output,
+colour management, film) are shown for strahl too.
+"""
+
+import bpy
+from bpy.props import EnumProperty, IntProperty, PointerProperty, StringProperty
+
+from . import passes
+
+ENGINE = "STRAHL"
+
+
+class StrahlPreferences(bpy.types.AddonPreferences):
+    bl_idname = __package__
+
+    binary: StringProperty(
+        name="strahl binary",
+        description="The strahl executable; empty: strahl on PATH",
+        subtype="FILE_PATH",
+        default="",
+    )
+
+    def draw(self, context):
+        self.layout.prop(self, "binary")
+
+
+class StrahlSettings(bpy.types.PropertyGroup):
+    integrator: EnumProperty(
+        name="Integrator",
+        items=(
+            ("path", "Path", "Path tracing: indirect light, next-event estimation with MIS"),
+            ("whitted", "Whitted", "The lecture's ray tracer: direct light, mirrors and glass"),
+        ),
+        default="path",
+    )
+    samples: IntProperty(name="Samples", description="Samples per pixel (strahl takes up to 65536)", default=16, min=1, max=65536)
+    max_depth: IntProperty(name="Max Depth", description="Longest chain of scattered rays", default=8, min=0, max=1024)
+    threads: IntProperty(name="Threads", description="Worker threads; 0: one per core", default=0, min=0, max=4096)
+    backend: EnumProperty(
+        name="Backend",
+        items=(
+            ("embree", "Embree", "Intel Embree finds the closest hits"),
+            ("native", "Native", "strahl's own BVH"),
+        ),
+        default="embree",
+    )
+
+
+class RENDER_PT_strahl(bpy.types.Panel):
+    bl_label = "strahl"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.strahl
+        for prop in ("integrator", "samples", "max_depth", "threads", "backend"):
+            layout.prop(settings, prop)
+        layout.prop(context.scene.render, "film_transparent", text="Transparent")
+
+
+class VIEWLAYER_PT_strahl_passes(bpy.types.Panel):
+    bl_label = "Passes (strahl)"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "view_layer"
+    COMPAT_ENGINES = {ENGINE}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        view_layer = context.view_layer
+        for _, name, _, _, _, prop in passes.TABLE:
+            layout.prop(view_layer, prop, text=name)
+        for _, name, prop in passes.CRYPTOMATTE:
+            layout.prop(view_layer, prop, text=name)
+        layout.prop(view_layer, "pass_cryptomatte_depth", text="Cryptomatte Levels")
+
+
+CLASSES = (StrahlPreferences, StrahlSettings, RENDER_PT_strahl, VIEWLAYER_PT_strahl_passes)
+
+# Blender's panels that work for any engine, by the engines they list.
+_SHARED_WITH = "BLENDER_RENDER"
+
+
+def _shared_panels():
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if engines is not None and _SHARED_WITH in engines:
+            yield panel
+
+
+def attach():
+    bpy.types.Scene.strahl = PointerProperty(type=StrahlSettings)
+    for panel in _shared_panels():
+        panel.COMPAT_ENGINES.add(ENGINE)
+
+
+def detach():
+    for panel in _shared_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE)
+    del bpy.types.Scene.strahl

@@ -1,0 +1,406 @@
+//! The Blender add-on (blender/strahl_engine) rendering with strahl, driven headless:
+//! tools/blender/room.py builds a .blend (a Cornell-like room, a metal and a glass sphere, an
+//! area light, a camera; 64 × 48 pixels, 4 samples, Depth, Normal, DiffCol and Cryptomatte
+//! passes, a compositor tree) with the add-on installed in a temporary BLENDER_USER_SCRIPTS,
+//! and exports its frame 1 with the add-on's exporter; `blender -b room.blend -E STRAHL -f 1`
+//! then renders it through the add-on, which runs the strahl binary built with the tests.
+//!
+//! - The saved image's view layer channels are **bit for bit** strahl's own render of the
+//!   exported glTF file with the same settings: Blender's render result and its 32-bit EXR
+//!   store floats unchanged (the multilayer EXR is scene-linear, no view transform), so any
+//!   difference is a pass put in the wrong place, flipped, cropped or converted.
+//! - The result has exactly the passes the view layer asks for, and the compositor ran on
+//!   them: Composite = DiffCol·(1 − m) + (1, 0, 1)·m, with m the Cryptomatte matte of the
+//!   object "metal" computed here from strahl's own Cryptomatte pass and manifest (1e-6).
+//! - A border render with crop is the border's pixels only, equal to that part of the frame.
+//! - A 3-frame animation writes 3 frames, each its own (the metal sphere moves).
+//! - Cancelling (SIGINT to Blender, its Ctrl-C) leaves no strahl process: the add-on prints
+//!   strahl's PID, which must be gone once Blender has exited.
+//! - strahl's error reaches Blender as one report line.
+//! - A view layer of another name gets the passes; a camera named like options and shell
+//!   commands renders the same image and runs nothing.
+//!
+//! Skips, saying so, when Blender is not installed; `STRAHL_REQUIRE_BLENDER=1` makes that a
+//! failure.
+
+mod common;
+
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use common::{TempDir, channel, read_exr, read_exr_image, strahl};
+
+const WIDTH: usize = 64;
+const HEIGHT: usize = 48;
+
+/// The .blend, its exported frame 1 and strahl's own render of it, made once for all tests.
+struct Room {
+    dir: TempDir,
+    blend: PathBuf,
+    reference: PathBuf,
+}
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+fn blender_missing() -> bool {
+    if Command::new("blender").arg("--version").output().is_ok() {
+        return false;
+    }
+    assert!(
+        std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
+        "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
+    );
+    common::skip("blender is not installed (apt-get install blender python3-numpy); the Blender add-on is not tested");
+    true
+}
+
+/// `blender -b --factory-startup`, in `dir`, with the add-on installed (a copy of blender/strahl_engine
+/// in `dir`/scripts/addons) and enabled, and the tests' strahl first on PATH.
+fn blender(dir: &Path, strahl_dir: Option<&Path>) -> Command {
+    let scripts = dir.join("scripts");
+    let addon = scripts.join("addons/strahl_engine");
+    if !addon.exists() {
+        std::fs::create_dir_all(&addon).unwrap();
+        for entry in std::fs::read_dir(repo("blender/strahl_engine")).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "py") {
+                std::fs::copy(&path, addon.join(path.file_name().unwrap())).unwrap();
+            }
+        }
+    }
+    let strahl_dir = strahl_dir
+        .map_or_else(|| Path::new(env!("CARGO_BIN_EXE_strahl")).parent().unwrap().to_path_buf(), Path::to_path_buf);
+    let path = std::env::join_paths(
+        std::iter::once(strahl_dir).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
+    )
+    .unwrap();
+    let mut cmd = Command::new("blender");
+    cmd.current_dir(dir).env("BLENDER_USER_SCRIPTS", &scripts).env("PATH", path).args([
+        "-b",
+        "--factory-startup",
+        "--addons",
+        "strahl_engine",
+    ]);
+    cmd
+}
+
+fn check(out: &Output, what: &str) {
+    assert!(
+        out.status.success(),
+        "{what} failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// strahl's arguments for the room's settings (tools/blender/room.py), as the add-on gives them.
+fn room_settings(camera: &str) -> Vec<String> {
+    let args = "--camera CAMERA --width 64 --height 48 --integrator path --spp 4 --depth 6 --backend embree \
+                --threads 1 --passes combined,depth,normal,albedo,crypto_object --cryptomatte-levels 2";
+    args.split(' ').map(|a| if a == "CAMERA" { camera.to_string() } else { a.to_string() }).collect()
+}
+
+fn room() -> Option<&'static Room> {
+    static ROOM: OnceLock<Option<Room>> = OnceLock::new();
+    ROOM.get_or_init(|| {
+        if blender_missing() {
+            return None;
+        }
+        let dir = TempDir::new("blender-engine");
+        let out = blender(&dir.0, None)
+            .arg("--python")
+            .arg(repo("tools/blender/room.py"))
+            .arg("--")
+            .arg(&dir.0)
+            .output()
+            .unwrap();
+        check(&out, "tools/blender/room.py");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let camera = stdout
+            .lines()
+            .find_map(|l| l.strip_prefix("CAMERA "))
+            .expect("room.py prints the camera")
+            .trim()
+            .to_string();
+        let gltf = dir.path("reference/scene.gltf");
+        let reference = dir.path("reference.exr");
+        let mut args =
+            vec!["render".to_string(), gltf.display().to_string(), "-o".into(), reference.display().to_string()];
+        args.extend(room_settings(&camera));
+        let out = strahl(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        check(&out, "strahl render of the exported glTF file");
+        Some(Room { blend: dir.path("room.blend"), reference, dir })
+    })
+    .as_ref()
+}
+
+/// Renders the room through the add-on: `blender -b room.blend -E STRAHL [python] -o
+/// <dir>/<name>/frame_#### ARGS`; returns the output folder.
+fn render(room: &Room, name: &str, python: Option<&str>, args: &[&str]) -> PathBuf {
+    let out_dir = room.dir.path(name);
+    let mut cmd = blender(&room.dir.0, None);
+    cmd.arg(&room.blend).args(["-E", "STRAHL"]);
+    if let Some(expr) = python {
+        cmd.args(["--python-expr", expr]);
+    }
+    cmd.arg("-o").arg(out_dir.join("frame_####")).args(args);
+    let out = cmd.output().unwrap();
+    check(&out, name);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(!text.contains("Error: strahl"), "{name}: the add-on reported an error:\n{text}");
+    out_dir
+}
+
+/// The channels named `ViewLayer.*` (the view layer's passes), sorted by name.
+fn view_layer(channels: &[(String, Vec<f32>)]) -> Vec<(String, Vec<f32>)> {
+    let mut v: Vec<_> = channels.iter().filter(|(n, _)| n.starts_with("ViewLayer.")).cloned().collect();
+    v.sort_by(|a, b| a.0.cmp(&b.0));
+    v
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// The Cryptomatte matte of object `name` at each pixel: the summed coverage of the ranks
+/// whose id is the name's (from the reference's manifest), over `CryptoObject00`.
+fn matte(reference: &Path, channels: &[(String, Vec<f32>)], name: &str) -> Vec<f32> {
+    let image = read_exr_image(reference);
+    let attrs = &image.layer_data[0].attributes.other;
+    let text = |v: &exr::meta::attribute::AttributeValue| match v {
+        exr::meta::attribute::AttributeValue::Text(t) => t.to_string(),
+        other => panic!("{other:?} is not text"),
+    };
+    let manifest_key = attrs
+        .iter()
+        .find(|(k, v)| k.to_string().ends_with("/name") && text(v) == "ViewLayer.CryptoObject")
+        .map(|(k, _)| k.to_string().replace("/name", "/manifest"))
+        .expect("a CryptoObject manifest");
+    let manifest: HashMap<String, String> =
+        serde_json::from_str(&text(&attrs[&exr::meta::attribute::Text::from(manifest_key.as_str())])).unwrap();
+    let id = u32::from_str_radix(&manifest[name], 16).unwrap();
+    let c = |s: &str| channel(channels, &format!("ViewLayer.CryptoObject00.{s}")).to_vec();
+    let (r, g, b, a) = (c("r"), c("g"), c("b"), c("a"));
+    (0..r.len())
+        .map(|i| {
+            let mut m = 0.0;
+            if r[i].to_bits() == id {
+                m += g[i];
+            }
+            if b[i].to_bits() == id {
+                m += a[i];
+            }
+            m
+        })
+        .collect()
+}
+
+#[test]
+fn f12_render_is_strahls_own_render_with_the_passes_asked_for_and_composites() {
+    let Some(room) = room() else { return };
+    let out = render(room, "still", None, &["-f", "1"]);
+    let frame = out.join("frame_0001.exr");
+    let (w, h, blender) = read_exr(&frame);
+    let (rw, rh, reference) = read_exr(&room.reference);
+    assert_eq!((w, h, rw, rh), (WIDTH, HEIGHT, WIDTH, HEIGHT));
+
+    // Exactly the passes asked for, each bit for bit strahl's.
+    let (got, want) = (view_layer(&blender), view_layer(&reference));
+    let names: Vec<&str> = got.iter().map(|(n, _)| n.as_str()).collect();
+    let expected = [
+        "Combined.A",
+        "Combined.B",
+        "Combined.G",
+        "Combined.R",
+        "CryptoObject00.a",
+        "CryptoObject00.b",
+        "CryptoObject00.g",
+        "CryptoObject00.r",
+        "Depth.Z",
+        "DiffCol.B",
+        "DiffCol.G",
+        "DiffCol.R",
+        "Normal.X",
+        "Normal.Y",
+        "Normal.Z",
+    ]
+    .map(|n| format!("ViewLayer.{n}"));
+    assert_eq!(names, expected.iter().map(String::as_str).collect::<Vec<_>>());
+    for ((name, a), (_, b)) in got.iter().zip(&want) {
+        let differing = a.iter().zip(b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+        assert_eq!(bits(a), bits(b), "{name}: {differing} of {} pixels differ from strahl's own render", a.len());
+    }
+    let combined = channel(&blender, "ViewLayer.Combined.R");
+    assert!(combined.iter().all(|&v| v > 0.0), "every pixel sees the lit room");
+
+    // The compositor ran on the passes: DiffCol mixed towards magenta by the metal's matte.
+    let m = matte(&room.reference, &reference, "metal");
+    let covered = m.iter().filter(|&&v| v > 0.99).count();
+    let empty = m.iter().filter(|&&v| v == 0.0).count();
+    assert!(covered > 50 && empty > 1000, "the metal sphere covers {covered} pixels, {empty} are free of it");
+    for (k, s) in ["R", "G", "B"].iter().enumerate() {
+        let diffcol = channel(&reference, &format!("ViewLayer.DiffCol.{s}"));
+        let composite = channel(&blender, &format!("Composite.Combined.{s}"));
+        let magenta = [1.0f32, 0.0, 1.0][k];
+        for i in 0..w * h {
+            let want = diffcol[i] * (1.0 - m[i]) + magenta * m[i];
+            assert!(
+                (composite[i] - want).abs() <= 1e-6,
+                "Composite.{s} at pixel {i}: {} != {want} (matte {})",
+                composite[i],
+                m[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn border_render_with_crop_is_the_border_only() {
+    let Some(room) = room() else { return };
+    // Blender's border: x from 25 % to 75 %, y (from the bottom) from 50 % to 100 %: strahl's
+    // region x 16..48, rows 0..24 from the top.
+    let expr = "import bpy; r = bpy.context.scene.render; r.use_border = True; r.use_crop_to_border = True; \
+                r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.5, 1.0";
+    let out = render(room, "border", Some(expr), &["-f", "1"]);
+    let (w, h, blender) = read_exr(&out.join("frame_0001.exr"));
+    assert_eq!((w, h), (32, 24));
+    let (_, _, reference) = read_exr(&room.reference);
+    for (name, got) in view_layer(&blender) {
+        let full = channel(&reference, &name);
+        let want: Vec<f32> =
+            (0..24).flat_map(|y| (16..48).map(move |x| (y, x))).map(|(y, x)| full[y * WIDTH + x]).collect();
+        assert_eq!(bits(&got), bits(&want), "{name}: the border differs from that part of the frame");
+    }
+}
+
+#[test]
+fn animation_renders_each_frame() {
+    let Some(room) = room() else { return };
+    let out = render(room, "animation", None, &["-s", "1", "-e", "3", "-a"]);
+    let mut files: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    files.sort();
+    assert_eq!(files, ["frame_0001.exr", "frame_0002.exr", "frame_0003.exr"]);
+    let frames: Vec<Vec<f32>> = files
+        .iter()
+        .map(|f| {
+            let (w, h, c) = read_exr(&out.join(f));
+            assert_eq!((w, h), (WIDTH, HEIGHT));
+            channel(&c, "ViewLayer.Combined.R").to_vec()
+        })
+        .collect();
+    let (_, _, reference) = read_exr(&room.reference);
+    assert_eq!(bits(&frames[0]), bits(channel(&reference, "ViewLayer.Combined.R")), "frame 1 is the still frame");
+    // The metal sphere moves from x = 0.5 to 0.1: each frame is its own.
+    assert_ne!(bits(&frames[0]), bits(&frames[1]), "frame 2 shows frame 1's scene");
+    assert_ne!(bits(&frames[1]), bits(&frames[2]), "frame 3 shows frame 2's scene");
+}
+
+#[test]
+fn cancelling_leaves_no_strahl_process() {
+    let Some(room) = room() else { return };
+    let expr = "import bpy; bpy.context.scene.strahl.samples = 65536";
+    let mut child = blender(&room.dir.0, None)
+        .arg(&room.blend)
+        .args(["-E", "STRAHL", "--python-expr", expr, "-o"])
+        .arg(room.dir.path("cancelled/frame_####"))
+        .args(["-f", "1"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let pid: u32 = lines
+        .by_ref()
+        .map_while(Result::ok)
+        .find_map(|l| l.strip_prefix("strahl: pid ").map(|p| p.trim().parse().unwrap()))
+        .expect("the add-on prints strahl's PID");
+    let proc = PathBuf::from(format!("/proc/{pid}"));
+    assert!(proc.exists(), "strahl {pid} is running");
+    std::thread::sleep(Duration::from_millis(500));
+    // Blender in the background takes SIGINT (Ctrl-C) as the user's break: test_break().
+    common::send_signal(&child, "-INT");
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        assert!(start.elapsed() < Duration::from_secs(120), "Blender did not stop after SIGINT");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(
+        rest.iter().any(|l| l.starts_with(&format!("strahl: pid {pid} stopped"))),
+        "the add-on stopped strahl (status {status}):\n{}",
+        rest.join("\n")
+    );
+    // Gone, not even a zombie: the add-on waited for it, and Blender has exited.
+    let alive = std::fs::read_to_string(proc.join("cmdline")).is_ok_and(|c| c.contains("strahl"));
+    assert!(!alive, "strahl {pid} outlived the cancelled render");
+}
+
+#[test]
+fn strahls_error_is_one_report_line() {
+    let Some(room) = room() else { return };
+    // A strahl that says it is strahl and then fails as strahl does: one `error:` line.
+    let fake = room.dir.path("fake-strahl");
+    std::fs::create_dir_all(&fake).unwrap();
+    let script = fake.join("strahl");
+    std::fs::write(
+        &script,
+        "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 'strahl 0.1.0'; exit 0; fi\n\
+         echo 'warning: something to ignore' >&2\necho 'error: scene.gltf: node 3: broken' >&2\nexit 1\n",
+    )
+    .unwrap();
+    std::fs::set_permissions(&script, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+    let out = blender(&room.dir.0, Some(&fake))
+        .arg(&room.blend)
+        .args(["-E", "STRAHL", "-o"])
+        .arg(room.dir.path("failed/frame_####"))
+        .args(["-f", "1"])
+        .output()
+        .unwrap();
+    let all = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let reports: Vec<&str> = all.lines().filter(|l| l.starts_with("Error: strahl")).collect();
+    assert_eq!(reports, ["Error: strahl: scene.gltf: node 3: broken"], "{all}");
+    assert!(!room.dir.path("failed/frame_0001.exr").exists() || out.status.success());
+}
+
+#[test]
+fn a_view_layer_of_another_name_gets_the_passes() {
+    let Some(room) = room() else { return };
+    // strahl names its channels `ViewLayer.*`; the add-on renames them for this layer.
+    let expr = "import bpy; bpy.context.scene.view_layers[0].name = 'Beauty pass'";
+    let out = render(room, "renamed", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let (_, _, reference) = read_exr(&room.reference);
+    let got: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("Beauty pass.")).collect();
+    assert_eq!(got.len(), view_layer(&reference).len(), "every pass, under the layer's name");
+    for (name, values) in got {
+        let want = channel(&reference, &name.replacen("Beauty pass.", "ViewLayer.", 1));
+        assert_eq!(bits(values), bits(want), "{name}");
+    }
+}
+
+#[test]
+fn hostile_names_reach_strahl_as_data() {
+    let Some(room) = room() else { return };
+    // A camera whose name reads as options and shell: the add-on passes the camera by index,
+    // and every value as an argument of its own, never through a shell.
+    let expr = r#"import bpy; bpy.context.scene.camera.name = "--spp=1 $(touch pwned) `touch pwned2`; '\" -o /tmp/x" + chr(10)"#;
+    let out = render(room, "hostile", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let (_, _, reference) = read_exr(&room.reference);
+    for (name, values) in view_layer(&blender) {
+        assert_eq!(bits(&values), bits(channel(&reference, &name)), "{name}");
+    }
+    for file in ["pwned", "pwned2"] {
+        assert!(!room.dir.path(file).exists(), "a shell ran the camera's name");
+    }
+}
