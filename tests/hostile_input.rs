@@ -10,52 +10,14 @@ mod common;
 
 use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
 
 use common::TempDir;
 
-/// What a run of `strahl` did.
-struct Run {
-    status: Option<i32>,
-    stderr: String,
-    /// Peak resident memory of the child, in MiB (`None` without `/usr/bin/time`).
-    max_rss_mib: Option<f64>,
-}
-
-/// Runs `strahl args` under `/usr/bin/time` (when there is one), killing it after 20 s so that a
-/// hang fails the test instead of stalling the suite.
-fn run(dir: &TempDir, args: &[&str]) -> Run {
-    let time = Path::new("/usr/bin/time");
-    let rss_file = dir.path("rss.txt");
-    let mut cmd = if time.exists() {
-        let mut c = Command::new(time);
-        c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
-        c
-    } else {
-        common::skip("/usr/bin/time is missing: peak memory not measured");
-        Command::new(env!("CARGO_BIN_EXE_strahl"))
-    };
-    let start = Instant::now();
-    let mut child = cmd.args(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().expect("strahl runs");
-    loop {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
-        if start.elapsed() > Duration::from_secs(20) {
-            child.kill().unwrap();
-            child.wait().unwrap();
-            panic!("strahl {args:?} still running after 20 s: a hang");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let out = child.wait_with_output().unwrap();
-    let max_rss_mib = std::fs::read_to_string(&rss_file)
-        .ok()
-        .and_then(|s| s.lines().last().and_then(|l| l.trim().parse::<f64>().ok()))
-        .map(|kib| kib / 1024.0);
-    let _ = std::fs::remove_file(&rss_file);
-    Run { status: out.status.code(), stderr: String::from_utf8_lossy(&out.stderr).trim_end().to_string(), max_rss_mib }
+/// Runs `strahl args`, measuring its peak memory and killing it after 20 s so that a hang
+/// fails the test instead of stalling the suite.
+fn run(_dir: &TempDir, args: &[&str]) -> common::Measured {
+    common::run_measured(args, &[], 20)
 }
 
 /// Runs `strahl info FILE` and checks it fails (before the 20 s kill) in under 200 MiB with one
@@ -65,7 +27,7 @@ fn refused_quickly(dir: &TempDir, file: &Path) -> String {
     assert_eq!(r.status, Some(1), "{file:?}: {}", r.stderr);
     assert_eq!(r.stderr.lines().count(), 1, "{:?}", r.stderr);
     assert!(r.stderr.starts_with(&format!("error: {}", file.display())), "{}", r.stderr);
-    if let Some(mib) = r.max_rss_mib {
+    if let Some(mib) = r.peak_mib() {
         assert!(mib < 200.0, "{file:?} took {mib:.0} MiB");
     }
     r.stderr
@@ -540,7 +502,7 @@ fn the_memory_estimate_bounds_the_render_and_max_memory_refuses_beyond_it() {
     let small = dir.path("small.exr");
     let r = run(&dir, &["render", scene, "--width", "1600", "--height", "1200", "-o", small.to_str().unwrap()]);
     assert_eq!(r.status, Some(0), "{}", r.stderr);
-    if let Some(mib) = r.max_rss_mib {
+    if let Some(mib) = r.peak_mib() {
         let estimate = estimate_mb(1600, 1200);
         let measured = mib * 1.048576;
         assert!(

@@ -8,8 +8,6 @@ mod common;
 
 use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::Instant;
 
 use common::TempDir;
 
@@ -22,35 +20,17 @@ struct Refusal {
     max_rss_mib: Option<f64>,
 }
 
-/// Runs `strahl args` (with `env` set) under `/usr/bin/time` when there is one, and checks it
-/// fails with exit status 1, one line `error: …` on stderr and nothing new in `dir`.
+/// Runs `strahl args` (with `env` set), measuring its time and peak memory, and checks it fails
+/// with exit status 1, one line `error: …` on stderr and nothing new in `dir`.
 fn refused(dir: &TempDir, args: &[&str], env: &[(&str, &str)]) -> Refusal {
     let before = dir.entries();
-    let rss_file = std::env::temp_dir().join(format!("strahl-readers-rss-{}", std::process::id()));
-    let time = Path::new("/usr/bin/time");
-    let mut cmd = if time.exists() {
-        let mut c = Command::new(time);
-        c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
-        c
-    } else {
-        common::skip("/usr/bin/time is missing: peak memory not measured");
-        Command::new(env!("CARGO_BIN_EXE_strahl"))
-    };
-    cmd.args(args).envs(env.iter().copied()).stdout(Stdio::null()).stderr(Stdio::piped());
-    let start = Instant::now();
-    let out = cmd.output().expect("strahl runs");
-    let seconds = start.elapsed().as_secs_f64();
-    let max_rss_mib = std::fs::read_to_string(&rss_file)
-        .ok()
-        .and_then(|s| s.lines().last().and_then(|l| l.trim().parse::<f64>().ok()))
-        .map(|kib| kib / 1024.0);
-    let _ = std::fs::remove_file(&rss_file);
-    let stderr = String::from_utf8_lossy(&out.stderr).trim_end().to_string();
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
-    assert_eq!(stderr.lines().count(), 1, "{stderr:?}");
-    assert!(stderr.starts_with("error: "), "{stderr}");
+    let m = common::run_measured(args, env, 60);
+    assert_eq!(m.status, Some(1), "{args:?}: {}", m.stderr);
+    assert_eq!(m.stderr.lines().count(), 1, "{:?}", m.stderr);
+    assert!(m.stderr.starts_with("error: "), "{}", m.stderr);
     assert_eq!(dir.entries(), before, "nothing written for {args:?}");
-    Refusal { line: stderr, seconds, max_rss_mib }
+    let max_rss_mib = m.peak_mib();
+    Refusal { line: m.stderr, seconds: m.seconds, max_rss_mib }
 }
 
 /// [`refused`], within 1 s and 200 MiB.

@@ -8,7 +8,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
 use common::{TempDir, data_dir, text};
 
@@ -140,25 +140,11 @@ fn a_cgroup_memory_limit_lowers_the_default() {
     assert_eq!(line, expected);
 }
 
-/// Peak RSS in bytes of `strahl args`, which must succeed, from `/usr/bin/time`.
-fn peak(dir: &TempDir, args: &[&str]) -> Option<u64> {
-    let time = Path::new("/usr/bin/time");
-    if !time.exists() {
-        return None;
-    }
-    let rss = dir.path("rss.txt");
-    let out: Output = Command::new(time)
-        .args(["-f", "%M", "-o"])
-        .arg(&rss)
-        .arg(strahl_bin())
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
-    let kib: u64 = std::fs::read_to_string(&rss).unwrap().trim().parse().unwrap();
-    Some(kib * 1024)
+/// Peak RSS in bytes of `strahl args`, which must succeed ([`common::run_measured`]).
+fn peak(_dir: &TempDir, args: &[&str]) -> Option<u64> {
+    let m = common::run_measured(args, &[], 600);
+    assert_eq!(m.status, Some(0), "{args:?}: {}", m.stderr);
+    m.peak_bytes
 }
 
 /// `strahl info`'s estimate for `scene` with `extra` options, bytes (whole MB rounded up).

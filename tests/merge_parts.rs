@@ -7,28 +7,14 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use common::{TempDir, fails, strahl, text};
 
-/// Runs `strahl args` and returns its exit code, stderr and peak resident memory in bytes, as
-/// `/usr/bin/time` measures it (`getrusage` of the child; `None` without `/usr/bin/time`), as
-/// tests/hostile_input.rs does.
-fn run_measured(dir: &TempDir, args: &[&str]) -> (Option<i32>, String, Option<u64>) {
-    let time = Path::new("/usr/bin/time");
-    let rss_file = dir.path("rss.txt");
-    let mut command = if time.exists() {
-        let mut c = Command::new(time);
-        c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
-        c
-    } else {
-        common::skip("/usr/bin/time is missing: peak memory not measured");
-        Command::new(env!("CARGO_BIN_EXE_strahl"))
-    };
-    let out = command.args(args).env("SOURCE_DATE_EPOCH", "1700000000").output().expect("strahl runs");
-    let kib = std::fs::read_to_string(&rss_file).ok().and_then(|s| s.lines().last()?.trim().parse::<u64>().ok());
-    let _ = std::fs::remove_file(&rss_file);
-    (out.status.code(), text(&out.stderr), kib.map(|k| k * 1024))
+/// Runs `strahl args` and returns its exit code, stderr and peak resident memory in bytes
+/// ([`common::run_measured`]).
+fn run_measured(_dir: &TempDir, args: &[&str]) -> (Option<i32>, String, Option<u64>) {
+    let m = common::run_measured(args, &[], 600);
+    (m.status, m.stderr, m.peak_bytes)
 }
 
 fn attribute(name: &str, kind: &str, value: &[u8]) -> Vec<u8> {

@@ -62,24 +62,12 @@ fn the_shipped_files_are_what_the_generator_writes() {
     }
 }
 
-/// Peak resident memory (MiB) of `strahl args`, or `None` without `/usr/bin/time`.
-fn peak_rss(dir: &TempDir, args: &[&str]) -> Option<f64> {
-    let time = Path::new("/usr/bin/time");
-    if !time.exists() {
-        common::skip("/usr/bin/time is missing: peak memory not measured");
-        return None;
-    }
-    let rss = dir.path("rss.txt");
-    let out = Command::new(time)
-        .args(["-f", "%M", "-o"])
-        .arg(&rss)
-        .arg(env!("CARGO_BIN_EXE_strahl"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{args:?}: {}", common::text(&out.stderr));
-    let kib: f64 = std::fs::read_to_string(&rss).unwrap().lines().last().unwrap().trim().parse().unwrap();
-    Some(kib / 1024.0)
+/// Peak resident memory (MiB) of `strahl args`, which must succeed, or `None` without
+/// `/usr/bin/time` ([`common::run_measured`]).
+fn peak_rss(_dir: &TempDir, args: &[&str]) -> Option<f64> {
+    let m = common::run_measured(args, &[], 600);
+    assert_eq!(m.status, Some(0), "{args:?}: {}", m.stderr);
+    m.peak_mib()
 }
 
 #[test]

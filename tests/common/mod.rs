@@ -219,6 +219,79 @@ pub fn strahl(args: &[&str]) -> Output {
         .expect("strahl runs")
 }
 
+/// What a measured run of `strahl` ([`run_measured`]) did.
+pub struct Measured {
+    pub status: Option<i32>,
+    /// Its stderr, trailing whitespace removed.
+    pub stderr: String,
+    /// Wall time, seconds.
+    pub seconds: f64,
+    /// Peak resident memory of the child in bytes (`getrusage` as `/usr/bin/time` reports it);
+    /// `None` without `/usr/bin/time`, which is said as a skipped check.
+    pub peak_bytes: Option<u64>,
+}
+
+impl Measured {
+    /// [`Measured::peak_bytes`] in MiB.
+    pub fn peak_mib(&self) -> Option<f64> {
+        self.peak_bytes.map(|b| b as f64 / (1024.0 * 1024.0))
+    }
+}
+
+/// Runs `strahl args` with `env` (and `SOURCE_DATE_EPOCH`, as [`strahl`]) under `/usr/bin/time`
+/// when there is one, its stdout discarded, and kills it after `limit_seconds` so that a hang
+/// fails the test instead of stalling the suite. The one runner of every test that measures
+/// strahl's memory.
+pub fn run_measured(args: &[&str], env: &[(&str, &str)], limit_seconds: u64) -> Measured {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    use std::time::{Duration, Instant};
+    static RUN: AtomicU32 = AtomicU32::new(0);
+    let rss_file = std::env::temp_dir().join(format!(
+        "strahl-test-rss-{}-{}",
+        std::process::id(),
+        RUN.fetch_add(1, Ordering::Relaxed)
+    ));
+    let time = Path::new("/usr/bin/time");
+    let mut cmd = if time.exists() {
+        let mut c = Command::new(time);
+        c.args(["-f", "%M", "-o"]).arg(&rss_file).arg(env!("CARGO_BIN_EXE_strahl"));
+        c
+    } else {
+        skip("/usr/bin/time is missing: peak memory not measured");
+        Command::new(env!("CARGO_BIN_EXE_strahl"))
+    };
+    cmd.args(args).env("SOURCE_DATE_EPOCH", "1700000000").envs(env.iter().copied());
+    let start = Instant::now();
+    let mut child = cmd.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().expect("strahl runs");
+    // stderr is read on its own thread, so that a chatty child cannot block on a full pipe.
+    let mut pipe = child.stderr.take().expect("piped stderr");
+    let reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        std::io::Read::read_to_end(&mut pipe, &mut s).map(|_| s)
+    });
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > Duration::from_secs(limit_seconds) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("strahl {args:?} still running after {limit_seconds} s: a hang");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    let stderr = reader.join().unwrap().unwrap();
+    let kib = std::fs::read_to_string(&rss_file).ok().and_then(|s| s.lines().last()?.trim().parse::<u64>().ok());
+    let _ = std::fs::remove_file(&rss_file);
+    Measured {
+        status: status.code(),
+        stderr: String::from_utf8_lossy(&stderr).trim_end().to_string(),
+        seconds,
+        peak_bytes: kib.map(|k| k * 1024),
+    }
+}
+
 /// Starts `strahl args` in the background with the test hook `env` set (`STRAHL_TEST_…`, a
 /// delay that leaves time to interrupt it), its output discarded.
 pub fn spawn_strahl<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>, env: (&str, &str)) -> Child {
