@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-slurm forest scale fuzz bench clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-slurm forest scale fuzz bench clean
 
 all: build
 
@@ -33,13 +33,46 @@ deps:
 	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing >/dev/null; \
 	fi
 
+# Intel Open Image Denoise 2.5.1 (Apache-2.0), for `--denoise` and `strahl denoise`. Debian 12
+# has no package of it: `make oidn` fetches the PyPI wheel pyoidn 2.5.1.0 (the wheel's Python
+# code is MIT; it ships OIDN's official Linux libraries) with `pip download` (nothing is
+# installed), and unpacks only OIDN's CPU libraries and TBB (Apache-2.0) into $(OIDN_DIR)/lib
+# (≈ 65 MB), writing nothing else. With that folder present, the cargo commands of this
+# Makefile build strahl with the `denoise` feature against it (the binary finds the libraries
+# by its rpath; src/denoise.rs); without it strahl builds and runs without denoising.
+OIDN_VERSION := 2.5.1
+OIDN_WHEEL := pyoidn==2.5.1.0
+OIDN_DIR ?= $(or $(XDG_CACHE_HOME),$(HOME)/.cache)/strahl/oidn-$(OIDN_VERSION)
+OIDN_LIB := $(OIDN_DIR)/lib/libOpenImageDenoise.so.$(OIDN_VERSION)
+# A shell test, not $(wildcard): make caches directories, and `make oidn` may have just made it.
+DENOISE_FEATURE = $$(test -f '$(OIDN_LIB)' && echo --features denoise)
+export OIDN_DIR
+oidn:
+	@if [ -f "$(OIDN_LIB)" ]; then exit 0; fi; \
+	set -e; tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
+	echo "fetching OIDN $(OIDN_VERSION) (the PyPI wheel $(OIDN_WHEEL), 88 MB) into $(OIDN_DIR)"; \
+	python3 -m pip download -q --disable-pip-version-check --no-deps --only-binary :all: \
+	  --platform manylinux2014_x86_64 $(OIDN_WHEEL) -d "$$tmp" || \
+	  { echo "make oidn: pip could not download $(OIDN_WHEEL); --denoise stays unavailable" >&2; exit 1; }; \
+	mkdir -p "$$tmp/oidn/lib"; \
+	python3 -c 'import sys, zipfile, os; z = zipfile.ZipFile(sys.argv[1]); d = sys.argv[2]; \
+	keep = [n for n in z.namelist() if n.startswith("pyoidn/oidn/lib/lib") and \
+	  os.path.basename(n).split(".so")[0] in ("libOpenImageDenoise", "libOpenImageDenoise_core", "libOpenImageDenoise_device_cpu", "libtbb")]; \
+	assert any(n.endswith("libOpenImageDenoise.so.$(OIDN_VERSION)") for n in keep), "no libOpenImageDenoise.so.$(OIDN_VERSION) in the wheel"; \
+	[open(os.path.join(d, "lib", os.path.basename(n)), "wb").write(z.read(n)) for n in keep]' \
+	  "$$(ls "$$tmp"/pyoidn-*.whl)" "$$tmp/oidn"; \
+	mkdir -p "$$(dirname "$(OIDN_DIR)")"; rm -rf "$(OIDN_DIR)"; mv "$$tmp/oidn" "$(OIDN_DIR)"; \
+	echo "OIDN $(OIDN_VERSION) in $(OIDN_DIR)/lib"
+
 build: deps
-	$(CARGO) build --release --locked
+	$(CARGO) build --release --locked $(DENOISE_FEATURE)
 
 # The release binary, on PATH, so that the README's `strahl …` commands work as written.
 install: build
 	install -d "$(PREFIX)/bin"
 	install -m 755 $(STRAHL) "$(PREFIX)/bin/strahl"
+	@if [ -f "$(OIDN_LIB)" ]; then install -d "$(PREFIX)/lib/strahl" && cp -P "$(OIDN_DIR)"/lib/lib*.so* "$(PREFIX)/lib/strahl/" && \
+	  echo "installed OIDN's libraries in $(PREFIX)/lib/strahl"; fi
 	@echo "installed $(PREFIX)/bin/strahl"
 
 demo: install
@@ -93,9 +126,9 @@ pip_install = python3 -c "$(2)" 2>/dev/null || \
 # Every test that skips a check for want of a tool appends `SKIPPED: TEST: WHY` to SKIP_LOG
 # (tests/common/mod.rs, `skip`); the lines are listed after the suite, whatever its outcome.
 SKIP_LOG := $(abspath $(or $(CARGO_TARGET_DIR),target))/skipped-tests.txt
-test: deps test-deps
+test: deps test-deps oidn
 	@mkdir -p $(dir $(SKIP_LOG)) && rm -f $(SKIP_LOG)
-	@status=0; STRAHL_SKIP_LOG=$(SKIP_LOG) $(CARGO) test --locked --no-fail-fast || status=$$?; \
+	@status=0; STRAHL_SKIP_LOG=$(SKIP_LOG) $(CARGO) test --locked --no-fail-fast $(DENOISE_FEATURE) || status=$$?; \
 	if [ -s $(SKIP_LOG) ]; then \
 	  echo "skipped checks: $$(sort -u $(SKIP_LOG) | wc -l) (install the tool each names to run it):"; sort -u $(SKIP_LOG); \
 	else echo "no test skipped a check"; fi; \

@@ -4,6 +4,10 @@
 //! Overrides: `EMBREE_INCLUDE_DIR` (the directory holding `embree3/` or `embree4/`),
 //! `EMBREE_LIB_DIR` (the directory holding `libembree3.so` or `libembree4.so`) and
 //! `EMBREE_VERSION` (major version `3` or `4`, or a full `3.13.5`).
+//!
+//! With the `denoise` feature, the binaries also get the run paths of Intel Open Image
+//! Denoise's libraries (the `oidn` crate links them from `OIDN_DIR/lib`): `$ORIGIN/../lib/strahl`,
+//! where `make install` copies them, then `OIDN_DIR/lib`, where `make oidn` unpacked them.
 
 use std::env;
 use std::fs;
@@ -152,4 +156,20 @@ fn main() {
     }
     fs::write(out.join("embree_bindings.rs"), text)
         .unwrap_or_else(|e| fail(&format!("cannot write the Embree bindings: {e}")));
+    if env::var_os("CARGO_FEATURE_DENOISE").is_some() {
+        oidn_run_paths();
+    }
+}
+
+/// The run paths by which `strahl` and the test binaries find OIDN's shared libraries.
+fn oidn_run_paths() {
+    let Some(dir) = env_var("OIDN_DIR") else {
+        fail("the `denoise` feature needs OIDN_DIR, the folder `make oidn` fills (it prints it)");
+    };
+    let lib = Path::new(&dir).join("lib");
+    if !lib.join("libOpenImageDenoise.so").is_file() {
+        fail(&format!("OIDN_DIR={dir} holds no lib/libOpenImageDenoise.so: run `make oidn`"));
+    }
+    println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN/../lib/strahl");
+    println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib.display());
 }

@@ -69,6 +69,9 @@ pub struct SlurmJob {
     pub confine: Option<PathBuf>,
     /// Further `strahl render` options, passed to every task as they are.
     pub render_options: Vec<OsString>,
+    /// Denoise the merged frame: the merge job merges into `noisy.exr` in the jobs' folder,
+    /// then runs `strahl denoise noisy.exr -o OUT.exr`, once for the whole frame.
+    pub denoise: bool,
 }
 
 /// The two job scripts of a [`SlurmJob`] and the folder they go in.
@@ -200,9 +203,14 @@ pub fn slurm_scripts(job: &SlurmJob) -> Result<Scripts, FarmError> {
     let mut merge = header("strahl-merge", "merge-%j.log");
     let _ = writeln!(merge, "# Runs after every task of the render array has ended; refuses a missing tile.");
     let _ = writeln!(merge, "cd {} || exit 1", shell_word(&folder));
-    let _ = write!(merge, "exec {} merge {}", shell_word(strahl), shell_word(output));
+    let merged = if job.denoise { "noisy.exr".to_string() } else { shell_word(output) };
+    let _ = write!(merge, "{}{} merge {merged}", if job.denoise { "" } else { "exec " }, shell_word(strahl));
     for i in 1..=n {
         let _ = write!(merge, " tile-{i}.exr");
+    }
+    if job.denoise {
+        let _ = write!(merge, " || exit 1\n# The merged frame denoised once: tiles denoised apart would show seams.\n");
+        let _ = write!(merge, "exec {} denoise noisy.exr -o {}", shell_word(strahl), shell_word(output));
     }
     merge.push('\n');
     Ok(Scripts { folder: PathBuf::from(folder), render, merge })

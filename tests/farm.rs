@@ -692,6 +692,7 @@ fn every_value_farm_slurm_writes_reaches_the_jobs_exactly_or_is_refused_in_one_l
             cpus: some(&mut rng, 0.5).then(|| rng.random_range(1..=8)),
             confine: some(&mut rng, 0.3).then(|| absolute(hostile(&mut rng, plain_rest))),
             render_options: (0..rng.random_range(0..4)).map(|_| hostile(&mut rng, plain_rest)).collect(),
+            denoise: rng.random_bool(0.5),
         };
         // What must be refused, by the rules of strahl::farm's module docs.
         let carries = |s: &OsStr| s.to_str().is_some();
@@ -757,7 +758,14 @@ fn every_value_farm_slurm_writes_reaches_the_jobs_exactly_or_is_refused_in_one_l
         let mut expected: Vec<Call> = (1..=n)
             .map(|i| Call { cwd: os(&root), argv: task_argv(&job.scene, &scripts.folder, i, n, &extra) })
             .collect();
-        expected.push(Call { cwd: os(&scripts.folder), argv: merge_argv(&output, n) });
+        if job.denoise {
+            // Merged into the jobs' folder, then denoised once into the output.
+            expected.push(Call { cwd: os(&scripts.folder), argv: merge_argv(Path::new("noisy.exr"), n) });
+            let denoise = vec![os("denoise"), os("noisy.exr"), os("-o"), os(&output)];
+            expected.push(Call { cwd: os(&scripts.folder), argv: denoise });
+        } else {
+            expected.push(Call { cwd: os(&scripts.folder), argv: merge_argv(&output, n) });
+        }
         assert_eq!(farm.calls()[before..], expected[..], "{job:?}");
         let records = &farm.submissions()[submitted..];
         let render = &records[0];

@@ -174,6 +174,7 @@ fuzz_target!(|data: &[u8]| {
         cpus: Some(u32::from(first >> 2 & 7)).filter(|&c| c > 0),
         confine: present(5).then(|| absolute(field(5))),
         render_options: fields.iter().skip(6).map(|f| OsString::from_vec(f.to_vec())).collect(),
+        denoise: false,
     };
     let scripts = match slurm_scripts(&job) {
         Ok(s) => s,

@@ -66,6 +66,10 @@ pub struct SlurmArgs {
     /// Submit the jobs with sbatch (otherwise only write the scripts and print how to submit).
     #[arg(long)]
     submit: bool,
+    /// Denoise the merged frame once with Intel Open Image Denoise (`strahl denoise`, run by the
+    /// merge job); the tiles must render the combined, albedo and normal passes.
+    #[arg(long)]
+    denoise: bool,
     /// Further `strahl render` options for every tile, after `--` (e.g. `-- --spp 16`).
     #[arg(last = true, value_name = "RENDER OPTIONS")]
     render: Vec<OsString>,
@@ -154,6 +158,20 @@ fn parse_task(a: &SlurmArgs, job: &SlurmJob, scripts: &Scripts) -> anyhow::Resul
 
 /// Loads the scene as every task will (camera, image overrides, passes) and checks the tiles
 /// against its height and the files it reads against `--confine`.
+/// With `--denoise`, the tiles' passes must hold what `strahl denoise` reads.
+fn check_denoise_passes(a: &SlurmArgs, scene: &Path, passes: strahl::output::passes::PassSet) -> anyhow::Result<()> {
+    use strahl::output::passes::Pass;
+    let needed = [Pass::Combined, Pass::Albedo, Pass::Normal];
+    if a.denoise && !needed.iter().all(|&p| passes.contains(p)) {
+        bail!(
+            "{}: --denoise needs the combined, albedo and normal passes in every tile; add them to \
+             `-- --passes`",
+            scene.display()
+        );
+    }
+    Ok(())
+}
+
 fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatches) -> anyhow::Result<()> {
     let camera = m.get_one::<String>("camera").map(String::as_str);
     let mut loaded = super::load_scene_with_camera(scene, camera)?;
@@ -178,6 +196,7 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
         scene_data.render.clamp = Some(clamp);
     }
     strahl::integrator::check_render(scene_data).map_err(|e| anyhow::anyhow!("{}: {e}", scene.display()))?;
+    check_denoise_passes(a, scene, scene_data.output.passes)?;
     if let Some(&ev) = m.get_one::<f32>("exposure") {
         if !ev.is_finite() {
             bail!("-- --exposure {ev} is not a finite number of stops");
@@ -270,6 +289,7 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<()> {
         cpus: a.cpus,
         confine: confine.clone(),
         render_options: a.render.clone(),
+        denoise: a.denoise,
     };
     let scripts = strahl::farm::slurm_scripts(&job)?;
     let options = parse_render_options(&a)?;

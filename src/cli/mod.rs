@@ -7,6 +7,7 @@
 
 mod bench;
 mod crosscheck;
+mod denoise;
 mod farm;
 mod info;
 mod merge;
@@ -35,6 +36,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Join the EXRs of regions of one render (`render --region`/`--tile`) into the whole image.
     Merge(merge::MergeArgs),
+    /// Denoise a strahl EXR (e.g. a merged farm frame) with Intel Open Image Denoise.
+    Denoise(denoise::DenoiseArgs),
     /// Split a render over a farm's scheduler: `strahl farm slurm` writes (and submits) a Slurm
     /// job array of tile renders and a merge job.
     Farm(farm::FarmArgs),
@@ -63,6 +66,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::Denoise(args) => denoise::run(args),
         Command::Farm(args) => farm::run(args),
         Command::Info(args) => info::run(args),
         Command::Crosscheck(args) => crosscheck::run(args),

@@ -15,7 +15,7 @@ use super::progress::Progress;
 use anyhow::bail;
 use clap::Args;
 use strahl::job::{Observer, RenderJob, Settings};
-use strahl::output::passes::MAX_CRYPTO_LEVELS;
+use strahl::output::passes::{MAX_CRYPTO_LEVELS, Pass, PassSet};
 use strahl::scene::IntegratorKind;
 use strahl::scene::load::MeshFormat;
 
@@ -90,11 +90,34 @@ pub struct RenderArgs {
     /// splitting a frame over a farm (`strahl merge` joins the tiles).
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
+    /// Denoise the frame with Intel Open Image Denoise once it is written (as `strahl denoise`
+    /// does; adds the combined, albedo, normal and depth passes). Not with --region/--tile:
+    /// denoise the merged frame (`strahl denoise`), or tiles show seams.
+    #[arg(long, conflicts_with_all = ["region", "tile"])]
+    denoise: bool,
+}
+
+/// The passes `--denoise` needs, added to those asked for.
+const DENOISE_PASSES: [Pass; 4] = [Pass::Combined, Pass::Albedo, Pass::Normal, Pass::Depth];
+
+/// `--passes` with what denoising needs added (the scene's passes when `--passes` is absent).
+fn passes_with_denoising(asked: Option<Vec<String>>, scene: PassSet) -> Vec<String> {
+    let mut names = asked.unwrap_or_else(|| scene.iter().map(|p| p.name().to_string()).collect());
+    for pass in DENOISE_PASSES {
+        if !names.iter().any(|n| n == pass.name()) {
+            names.push(pass.name().to_string());
+        }
+    }
+    names
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let output = args.output.into_output();
     output.check()?;
+    if args.denoise {
+        strahl::output::denoise::check_available()?;
+    }
+    let exr_path = output.exr.clone();
     if MeshFormat::of(&args.scene).is_some() {
         bail!(
             "{}: is a mesh file, with no camera or lights to render it by; name it in a scene file \
@@ -113,7 +136,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         height: args.height,
         spp: args.spp,
         depth: args.depth,
-        passes: args.passes,
+        passes: if args.denoise {
+            Some(passes_with_denoising(args.passes, loaded.scene.output.passes))
+        } else {
+            args.passes
+        },
         transparent: args.transparent,
         crypto_levels: args.cryptomatte_levels,
         region: args.region,
@@ -137,5 +164,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut rendered = rendered?;
     let write_seconds = job.write(&mut rendered, &observer)?;
     print!("{}", job.summary(&rendered, write_seconds));
+    if args.denoise {
+        strahl::output::denoise::denoise_in_place(&exr_path)
+            .map_err(|e| anyhow::anyhow!("{e} (it holds the frame as rendered, not denoised)"))?;
+        println!("denoised {}", exr_path.display());
+    }
     Ok(())
 }

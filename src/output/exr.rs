@@ -496,7 +496,7 @@ pub fn encode_blocks(
 /// sorting them makes the bytes the same on every run. The header keeps its length, so the
 /// offset table after it stays valid. Leaves anything it cannot parse untouched.
 /// Returns where the sorted attributes end, if it sorted them.
-fn sort_header_attributes(bytes: &mut [u8]) -> Option<usize> {
+pub(crate) fn sort_header_attributes(bytes: &mut [u8]) -> Option<usize> {
     let spans = header_attribute_spans(bytes)?;
     let (start, end) = (spans[0].start, spans[spans.len() - 1].end);
     let mut sorted: Vec<&std::ops::Range<usize>> = spans.iter().collect();
