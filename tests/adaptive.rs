@@ -322,3 +322,31 @@ fn lower_rmse_than_uniform_sampling_at_equal_samples() {
     );
     assert!(adaptive_rmse < 0.8 * uniform_rmse, "adaptive {adaptive_rmse}, uniform {uniform_rmse}");
 }
+
+/// A threshold that is not a positive number, or adaptive sampling with the Whitted
+/// integrator, is refused in one line before anything is rendered or written; in a scene
+/// file, at its line and column.
+#[test]
+fn bad_thresholds_are_refused_in_one_line() {
+    let dir = TempDir::new("adaptive-bad");
+    let out = dir.path("out.exr");
+    for (t, says) in [("-0.01", "adaptive_threshold -0.01 must be finite and > 0"), ("nan", "adaptive_threshold NaN")] {
+        let a = args(&out, &["--adaptive-threshold", t]);
+        let e = common::fails(&dir, &a.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(e.contains(says), "{e}");
+    }
+    let mut a = args(&out, &["--adaptive-threshold", "0.01"]);
+    a[5] = "whitted".into();
+    let e = common::fails(&dir, &a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(e.contains("adaptive sampling is the path tracer's"), "{e}");
+    // 0 is off: the same bytes as without the option.
+    let off = render(&dir.path("off.exr"), &["--spp", "4", "--adaptive-threshold", "0"]);
+    assert!(off == render(&dir.path("plain.exr"), &["--spp", "4"]));
+
+    let scene = std::fs::read_to_string(cornell())
+        .unwrap()
+        .replace("integrator = \"whitted\"", "integrator = \"path\"\nadaptive_threshold = -1");
+    let file = dir.write("bad.toml", scene);
+    let e = common::fails(&dir, &["render", file.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(e.contains("bad.toml:15:") && e.contains("adaptive_threshold -1 must be finite and > 0"), "{e}");
+}

@@ -154,7 +154,8 @@ mod tests {
         // Cycles' comment: 0.1 → 32, 0.01 → 64, 0.001 → 128.
         assert_eq!([min(0.1, 0), min(0.01, 0), min(0.001, 0)], [32, 64, 128]);
         assert_eq!([min(1000.0, 0), min(0.01, 2), min(0.01, 100)], [4, 4, 100]);
-        assert_eq!(Adaptive::new(&AdaptiveSpec { threshold: 0.01, min_samples: 0 }).threshold, 0.05);
+        // 5 × 0.01 in f32, as Cycles multiplies.
+        assert_eq!(Adaptive::new(&AdaptiveSpec { threshold: 0.01, min_samples: 0 }).threshold, 5.0 * 0.01f32);
     }
 
     #[test]
