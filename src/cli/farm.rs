@@ -195,6 +195,9 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     if let Some(&clamp) = m.get_one::<f32>("clamp") {
         scene_data.render.clamp = Some(clamp);
     }
+    if let Some(&threshold) = m.get_one::<f32>("adaptive_threshold") {
+        scene_data.render.set_adaptive_threshold(threshold);
+    }
     strahl::integrator::check_render(scene_data).map_err(|e| anyhow::anyhow!("{}: {e}", scene.display()))?;
     check_denoise_passes(a, scene, scene_data.output.passes)?;
     if let Some(&ev) = m.get_one::<f32>("exposure") {

@@ -61,6 +61,13 @@ pub struct RenderArgs {
     /// scaled so its largest channel is at most C (less fireflies, less energy) [default: off].
     #[arg(long, value_name = "C", allow_negative_numbers = true)]
     clamp: Option<f32>,
+    /// Adaptive sampling, Cycles' noise threshold (0.01 is Cycles' usual value; lower: less
+    /// noise, more samples): the path tracer stops sampling a pixel once its own noise estimate
+    /// is below T, testing every 16 samples after a minimum (64 at 0.01), so `--spp` is the
+    /// most samples a pixel takes; 0 turns it off (overrides `[render] adaptive_threshold`;
+    /// see docs/rendering.md) [default: off].
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
+    adaptive_threshold: Option<f32>,
     /// The radiance from far away along rays that leave the scene (overrides the scene's
     /// `[environment]`): an equirectangular map (OpenEXR or Radiance .hdr, Blender's
     /// orientation; see docs/lights.md), or a constant colour R,G,B.
@@ -73,7 +80,7 @@ pub struct RenderArgs {
     /// `default`, `all`, or names from combined, depth, normal, albedo, emission, diffuse,
     /// specular, reflection, transmission, background, position, object_index,
     /// material_index, crypto_object, crypto_material, disagreement (the camera rays traced
-    /// through both backends; not in `all`).
+    /// through both backends; not in `all`), sample_count, variance.
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     passes: Option<Vec<String>>,
     /// Render the background transparent: rays that escape give RGBA 0, alpha is coverage.
@@ -151,6 +158,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         output: Some(output),
         integrator: args.integrator,
         clamp: args.clamp,
+        adaptive_threshold: args.adaptive_threshold,
     };
     let job = RenderJob::new(&args.scene, loaded.scene, settings)?;
     if let Some(line) = job.complete(&Observer { progress: &|_| {}, note: &|line| eprintln!("{line}") })? {

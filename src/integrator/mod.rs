@@ -28,10 +28,16 @@
 //! fixed order, so the film and the counts are bit-identical for any number of threads. What the film's channels hold is
 //! documented in [`crate::output::film`].
 //!
+//! **Adaptive sampling** ([`adaptive`], `[render] adaptive_threshold`): after the rounds at
+//! which Cycles tests pixels, the pixels of a tile that have converged leave its batch
+//! ([`retire_converged`]); the others go on, in their order, until `spp`. A pixel's samples
+//! decide alone when it stops, so this changes nothing of the above.
+//!
 //! **Streaming.** Each tile's pixels go into the one film as the tile finishes (under a lock
 //! held for the tile's copy); no second frame-sized buffer exists. Every pixel is written by
 //! exactly one tile, so the order tiles finish in does not matter.
 
+pub mod adaptive;
 pub mod lights;
 pub mod path;
 pub mod path_lights;
@@ -268,7 +274,7 @@ fn render_tile<A: Accel, I: Integrator>(
     let passes = scene.output.passes;
     let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
     let compare = passes.contains(Pass::Disagreement);
-    let pixels = tile.pixels_in_packet_order();
+    let mut pixels = tile.pixels_in_packet_order();
     let spp = scene.image.spp;
     let lens = camera.has_lens();
     let mut samplers: Vec<I::Sampler> =
@@ -281,23 +287,56 @@ fn render_tile<A: Accel, I: Integrator>(
     // Written in place every round (a 160-byte value returned per pixel cost a memcpy call).
     let mut samples = vec![CameraSample::default(); pixels.len()];
     let mut scratch = I::Scratch::default();
+    let adaptive = scene.render.adaptive.as_ref().map(adaptive::Adaptive::new);
+    // The pixels still sampling are the first `n` of `pixels`, `samplers` and `accumulators`.
+    let mut n = pixels.len();
     for sample in 0..spp {
-        camera_rays(camera, &pixels, &mut samplers, sample, &mut rays);
+        if n == 0 {
+            break;
+        }
+        camera_rays(camera, &pixels[..n], &mut samplers[..n], sample, &mut rays);
         counts.primary += rays.len() as u64;
-        accel.intersect_batch(&rays, &mut hits)?;
+        let hits = &mut hits[..n];
+        accel.intersect_batch(&rays, hits)?;
         if compare {
-            accel.compare_first_hits(&rays, &hits, &mut differ)?;
-            for (acc, _) in accumulators.iter_mut().zip(&differ).filter(|(_, d)| **d) {
+            accel.compare_first_hits(&rays, hits, &mut differ[..n])?;
+            for (acc, _) in accumulators.iter_mut().zip(&differ[..n]).filter(|(_, d)| **d) {
                 acc.add_disagreement();
             }
         }
-        integrator.shade_round(&rays, &hits, &mut samplers, &mut counts, &mut scratch, &mut samples)?;
-        for (acc, s) in accumulators.iter_mut().zip(&samples) {
+        let samples = &mut samples[..n];
+        integrator.shade_round(&rays, hits, &mut samplers[..n], &mut counts, &mut scratch, samples)?;
+        for (acc, s) in accumulators.iter_mut().zip(samples.iter()) {
             let object = s.first.filter(|_| crypto).map(|f| ids.object_of(scene, &f.hit));
             acc.add(s.radiance, &s.split, s.first, object);
         }
+        if let Some(rule) = adaptive.as_ref().filter(|rule| rule.tests_after(sample)) {
+            n = retire_converged(rule, n, &mut pixels, &mut samplers, &mut accumulators);
+        }
     }
     Ok((pixels, accumulators, counts))
+}
+
+/// Moves the pixels among the first `n` whose samples meet `rule` behind those that do not,
+/// keeping the order of the latter (their packets stay as coherent as they can), and returns
+/// how many still sample. The three lists are permuted alike.
+fn retire_converged<S>(
+    rule: &adaptive::Adaptive,
+    n: usize,
+    pixels: &mut [(u32, u32)],
+    samplers: &mut [S],
+    accumulators: &mut [PixelAccumulator],
+) -> usize {
+    let mut kept = 0;
+    for i in 0..n {
+        if !accumulators[i].converged(rule) {
+            pixels.swap(kept, i);
+            samplers.swap(kept, i);
+            accumulators.swap(kept, i);
+            kept += 1;
+        }
+    }
+    kept
 }
 
 /// The camera rays of round `sample` into `rays`, one per pixel: the pinhole ray through the
@@ -319,11 +358,16 @@ fn camera_rays<S: PixelSamples>(
     }));
 }
 
-/// Checks the `[render]` settings against the rest of the scene: the clamp, and for the path
-/// tracer the samples its Sobol sequence holds. Part of
+/// Checks the `[render]` settings against the rest of the scene: the clamp, adaptive sampling
+/// (the path tracer's only), and for the path tracer the samples its Sobol sequence holds. Part of
 /// [`check_scene`]; also called by a job before anything is loaded or built.
 pub fn check_render(scene: &Scene) -> Result<(), RenderError> {
     if let Some(problem) = scene.render.problem() {
+        return Err(RenderError::InvalidScene(format!("render: {problem}")));
+    }
+    if scene.render.integrator == IntegratorKind::Whitted && scene.render.adaptive.is_some() {
+        let problem = "adaptive sampling is the path tracer's (--integrator path): Whitted's stratified \
+                       samples are spread for exactly spp samples, so a pixel cannot stop early";
         return Err(RenderError::InvalidScene(format!("render: {problem}")));
     }
     if scene.render.integrator == IntegratorKind::Path {

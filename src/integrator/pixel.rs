@@ -4,12 +4,14 @@
 //! terms of the light-path passes ([`Radiance`], [`crate::output::passes`]) and what it found
 //! first ([`FirstHit`], for the AOVs). A [`PixelAccumulator`] adds a pixel's samples in sample
 //! order (so deterministically) and writes the box filter of them to the film: the mean over
-//! all `spp` samples for RGB, alpha and the light-path passes, over the samples that hit for
+//! the pixel's samples (all `spp`, or fewer where adaptive sampling stopped it,
+//! [`super::adaptive`]) for RGB, alpha and the light-path passes, over the samples that hit for
 //! normal and albedo, the nearest hit for depth, position and the index passes, the
 //! Cryptomatte ranks of the objects and materials hit, and the fraction of samples whose camera
 //! ray two backends saw differently (what each channel holds:
 //! [`crate::output::film`]).
 
+use super::adaptive::{Adaptive, PixelNoise};
 use crate::accel::Hit;
 use crate::bsdf::{BsdfEval, PassClass};
 use crate::math::Vec3;
@@ -96,6 +98,8 @@ pub struct PixelAccumulator {
     materials: Vec<(u32, u32)>,
     /// Samples whose camera ray a second backend saw differently (the `disagreement` pass).
     disagreements: u32,
+    /// The sample count and the noise estimates of adaptive sampling and the variance pass.
+    noise: PixelNoise,
 }
 
 /// The lobe family whose colour divides a direct or indirect light pass.
@@ -117,6 +121,7 @@ impl PixelAccumulator {
     /// (`object` is `Some`), the object of that hit.
     pub fn add(&mut self, radiance: Vec3, split: &Radiance, first: Option<FirstHit>, object: Option<u32>) {
         self.radiance += radiance;
+        self.noise.add(radiance);
         for (sum, term) in self.split.iter_mut().zip(split.terms()) {
             *sum += term;
         }
@@ -142,7 +147,7 @@ impl PixelAccumulator {
         if self.hits == 0 { Vec3::ZERO } else { self.colors.get(class) / self.hits as f32 }
     }
 
-    /// A light pass: the mean of its term over all `spp` samples, divided by its family's
+    /// A light pass: the mean of its term over the pixel's `spp` samples, divided by its family's
     /// colour pass for the direct and indirect passes (0 in a channel where that is 0).
     fn light(&self, pass: Pass, spp: u32) -> Vec3 {
         let k = LIGHT_PASSES.iter().position(|&p| p == pass).unwrap_or(0);
@@ -158,10 +163,16 @@ impl PixelAccumulator {
         self.disagreements += 1;
     }
 
-    /// Box filter: the mean over all `spp` samples for RGB and alpha, over the hit samples for
+    /// Whether the pixel's samples so far meet the adaptive sampling `rule`.
+    pub fn converged(&self, rule: &Adaptive) -> bool {
+        rule.converged(self.radiance, &self.noise)
+    }
+
+    /// Box filter: the mean over the pixel's samples for RGB and alpha, over the hit samples for
     /// normal and albedo; the nearest hit for depth (see [`crate::output::film`]).
     pub fn write(&self, film: &mut Film, x: u32, y: u32, scene: &Scene, ids: &ObjectIds) {
-        let spp = scene.image.spp;
+        // `image.spp`, or fewer where adaptive sampling stopped the pixel.
+        let spp = self.noise.samples();
         let i = film.index(x, y);
         let rgb = self.radiance / spp as f32;
         let alpha = if scene.output.transparent { self.hits as f32 / spp as f32 } else { 1.0 };
@@ -192,6 +203,8 @@ impl PixelAccumulator {
                 }
                 Pass::MaterialIndex => out[0] = self.nearest.map_or(0.0, |f| (f.material + 1) as f32),
                 Pass::Disagreement => out[0] = self.disagreements as f32 / spp as f32,
+                Pass::SampleCount => out[0] = spp as f32 / scene.image.spp as f32,
+                Pass::Variance => out.copy_from_slice(&self.noise.variance_of_mean().to_array()),
                 Pass::CryptoObject => {
                     let mut counts: Vec<(u32, u32)> =
                         self.objects.iter().map(|&(o, n)| (ids.object_id_bits[o as usize], n)).collect();

@@ -165,6 +165,9 @@ pub struct Settings {
     pub integrator: Option<crate::scene::IntegratorKind>,
     /// The path tracer's clamp of indirect light (overrides `[render] clamp`).
     pub clamp: Option<f32>,
+    /// Adaptive sampling's noise threshold (overrides `[render] adaptive_threshold`; 0 turns
+    /// it off).
+    pub adaptive_threshold: Option<f32>,
 }
 
 /// A render ready to run: its scene with the settings applied, and everything checked.
@@ -226,6 +229,9 @@ impl RenderJob {
         scene.output.crypto_levels = settings.crypto_levels.unwrap_or(scene.output.crypto_levels);
         scene.render.integrator = settings.integrator.unwrap_or(scene.render.integrator);
         scene.render.clamp = settings.clamp.or(scene.render.clamp);
+        if let Some(threshold) = settings.adaptive_threshold {
+            scene.render.set_adaptive_threshold(threshold);
+        }
         crate::integrator::check_render(&scene).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         refuse_over_budget(path, settings.max_memory, &scene, region)?;
         if let Some(every) = settings.output.as_ref().map(|o| o.checkpoint_every) {

@@ -16,6 +16,7 @@
 //! | object_index, material_index | `ViewLayer.IndexOB.X`, `ViewLayer.IndexMA.X` | `object_index.X`, `material_index.X` |
 //! | crypto_object | `ViewLayer.CryptoObject00.r/g/b/a`, `01`, … | `CryptoObject00.R/G/B/A`, … |
 //! | crypto_material | `ViewLayer.CryptoMaterial00.r/g/b/a`, … | `CryptoMaterial00.R/G/B/A`, … |
+//! | sample_count, variance | `ViewLayer.Debug Sample Count.X`, `ViewLayer.Variance.R/G/B` | `sample_count.X`, `variance.R/G/B` |
 //!
 //! The Cryptomatte passes are named `ViewLayer.CryptoObject` / `CryptoObject` (and material)
 //! in their `cryptomatte/<key>/name` attributes ([`crate::output::cryptomatte`]).
@@ -230,6 +231,8 @@ pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
         Pass::ObjectIndex => ("IndexOB", "object_index", &["X"]),
         Pass::MaterialIndex => ("IndexMA", "material_index", &["X"]),
         Pass::Disagreement => ("Disagreement", "disagreement", &["X"]),
+        Pass::SampleCount => ("Debug Sample Count", "sample_count", &["X"]),
+        Pass::Variance => ("Variance", "variance", &RGBA),
         Pass::CryptoObject | Pass::CryptoMaterial => {
             let layer = format!("{}{:02}", crypto_type(pass), component / 4);
             return match layout {

@@ -38,6 +38,8 @@
 //! | `crypto_object` | `CryptoObject00..` | Cryptomatte ranks of the objects ([`crate::output::cryptomatte`]) | id, coverage |
 //! | `crypto_material` | `CryptoMaterial00..` | Cryptomatte ranks of the materials | id, coverage |
 //! | `disagreement` | `Disagreement` (X) | the fraction of the pixel's camera rays whose first hit (primitive, or none) differs between Embree and the native BVH | 1 |
+//! | `sample_count` | `Debug Sample Count` (X) | the samples the pixel took divided by `spp`, as Cycles writes it: 1 but where adaptive sampling stopped the pixel early ([`crate::integrator::adaptive`]) | 1 |
+//! | `variance` | `Variance` (RGB) | the variance of the pixel's beauty (the mean of its samples), per channel ([`crate::integrator::adaptive::PixelNoise::variance_of_mean`]) | (W/(m²·sr))² |
 //!
 //! `--passes diffuse`, `glossy` and `transmission` name a family's three passes at once, and
 //! `light` every light-path pass with the colours.
@@ -79,6 +81,8 @@ pub enum Pass {
     CryptoObject,
     CryptoMaterial,
     Disagreement,
+    SampleCount,
+    Variance,
 }
 
 /// The light-path passes that hold radiance, in the order of
@@ -103,7 +107,7 @@ pub const FAMILIES: [(Pass, Pass, Pass); 3] = [
 
 impl Pass {
     /// Every pass, in the order of the module docs (and of the channels in the film).
-    pub const ALL: [Pass; 20] = [
+    pub const ALL: [Pass; 22] = [
         Pass::Combined,
         Pass::Depth,
         Pass::Normal,
@@ -124,6 +128,8 @@ impl Pass {
         Pass::CryptoObject,
         Pass::CryptoMaterial,
         Pass::Disagreement,
+        Pass::SampleCount,
+        Pass::Variance,
     ];
 
     /// The name on the command line and in `[output] passes`.
@@ -149,6 +155,8 @@ impl Pass {
             Pass::CryptoObject => "crypto_object",
             Pass::CryptoMaterial => "crypto_material",
             Pass::Disagreement => "disagreement",
+            Pass::SampleCount => "sample_count",
+            Pass::Variance => "variance",
         }
     }
 
@@ -183,7 +191,7 @@ impl Pass {
     pub fn floats_per_pixel(self, crypto_levels: u32) -> usize {
         match self {
             Pass::Combined => 4,
-            Pass::Depth | Pass::ObjectIndex | Pass::MaterialIndex | Pass::Disagreement => 1,
+            Pass::Depth | Pass::ObjectIndex | Pass::MaterialIndex | Pass::Disagreement | Pass::SampleCount => 1,
             Pass::CryptoObject | Pass::CryptoMaterial => 4 * crypto_levels.div_ceil(2) as usize,
             _ => 3,
         }

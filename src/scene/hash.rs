@@ -289,6 +289,7 @@ mod tests {
         let changes: Vec<(&str, Change)> = vec![
             ("spp", Box::new(|s| s.image.spp = 2)),
             ("transparent", Box::new(|s| s.output.transparent = true)),
+            ("adaptive sampling", Box::new(|s| s.render.set_adaptive_threshold(0.01))),
             ("vertex", Box::new(|s| s.meshes[0].positions[0].x += 1e-6)),
             ("first texel", Box::new(move |s| texel(s, 0))),
             ("last texel", Box::new(move |s| texel(s, 3 * CHUNK / 12 + 6))),

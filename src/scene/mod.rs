@@ -151,20 +151,58 @@ impl IntegratorKind {
     }
 }
 
-/// How a scene is rendered beyond the image settings (`[render]`): the integrator and the path
-/// tracer's clamp.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// How a scene is rendered beyond the image settings (`[render]`): the integrator, the path
+/// tracer's clamp and adaptive sampling.
+#[derive(Clone, Copy, Default, PartialEq)]
 pub struct RenderSpec {
     pub integrator: IntegratorKind,
     /// The path tracer's clamp of indirect light: a sample's contribution through two or more
     /// bounces is scaled down so that its largest channel is at most this (`None`: no clamp).
     pub clamp: Option<f32>,
+    /// Adaptive sampling (`[render] adaptive_threshold`, `adaptive_min_samples`;
+    /// [`crate::integrator::adaptive`]); `None`: every pixel takes `image.spp` samples.
+    pub adaptive: Option<AdaptiveSpec>,
+}
+
+/// Adaptive sampling as the user sets it, Cycles' two settings: the noise threshold and the
+/// minimum samples (0: Cycles' automatic rule). [`crate::integrator::adaptive::Adaptive`]
+/// turns them into the rule the tile loop applies.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AdaptiveSpec {
+    /// Cycles' noise threshold (> 0; 0.01 is Cycles' default).
+    pub threshold: f32,
+    /// Samples every pixel takes before it may stop; 0 chooses them from the threshold.
+    pub min_samples: u32,
 }
 
 impl RenderSpec {
+    /// Sets adaptive sampling's threshold (`--adaptive-threshold`), keeping the minimum
+    /// samples; 0 turns it off.
+    pub fn set_adaptive_threshold(&mut self, threshold: f32) {
+        let min_samples = self.adaptive.map_or(0, |a| a.min_samples);
+        self.adaptive = (threshold != 0.0).then_some(AdaptiveSpec { threshold, min_samples });
+    }
+
     /// Why these settings cannot be rendered, if they cannot.
     pub fn problem(&self) -> Option<String> {
-        self.clamp.filter(|c| !(c.is_finite() && *c > 0.0)).map(|c| format!("clamp {c} must be finite and > 0"))
+        if let Some(c) = self.clamp.filter(|c| !(c.is_finite() && *c > 0.0)) {
+            return Some(format!("clamp {c} must be finite and > 0"));
+        }
+        let t = self.adaptive.map(|a| a.threshold)?;
+        (!(t.is_finite() && t > 0.0)).then(|| format!("adaptive_threshold {t} must be finite and > 0 (0 turns it off)"))
+    }
+}
+
+/// The fields as text, adaptive sampling only when it is on: scene fingerprints
+/// ([`hash`]) hash this text, and those of renders without it stay as they were.
+impl std::fmt::Debug for RenderSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("RenderSpec");
+        d.field("integrator", &self.integrator).field("clamp", &self.clamp);
+        if let Some(a) = &self.adaptive {
+            d.field("adaptive", a);
+        }
+        d.finish()
     }
 }
 

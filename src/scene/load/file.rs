@@ -30,7 +30,7 @@ use crate::material::{Material, Texture};
 use crate::math::Vec3;
 use crate::output::passes::{MAX_CRYPTO_LEVELS, OutputSpec, PassSet};
 use crate::scene::Lens;
-use crate::scene::{CameraSpec, ImageSpec, IntegratorKind, RenderSpec, Scene};
+use crate::scene::{AdaptiveSpec, CameraSpec, ImageSpec, IntegratorKind, RenderSpec, Scene};
 use crate::sys::read::{MAX_SCENE_BYTES, ReadError, read_regular};
 
 /// Most spheres a scene may have, all `random_spheres` objects and `sphere`s together (a typo
@@ -257,13 +257,16 @@ struct SceneFile {
     environment: Option<Spanned<environment::EnvironmentFile>>,
 }
 
-/// `[render]`: the integrator (`"path"`, the default, or `"whitted"`) and the path tracer's
-/// `clamp` of indirect light.
+/// `[render]`: the integrator (`"path"`, the default, or `"whitted"`), the path tracer's
+/// `clamp` of indirect light, and adaptive sampling (`adaptive_threshold`, 0 or absent: off;
+/// `adaptive_min_samples`, 0 or absent: automatic).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RenderFile {
     integrator: Option<Spanned<String>>,
     clamp: Option<Spanned<f64>>,
+    adaptive_threshold: Option<Spanned<f64>>,
+    adaptive_min_samples: Option<Spanned<u32>>,
 }
 
 impl RenderFile {
@@ -276,6 +279,13 @@ impl RenderFile {
             spec.clamp = Some(*c.get_ref() as f32);
             if let Some(m) = spec.problem() {
                 return Err(at(c.span(), format!("render: {m}")));
+            }
+        }
+        let min_samples = self.adaptive_min_samples.as_ref().map_or(0, |m| *m.get_ref());
+        if let Some(t) = self.adaptive_threshold.as_ref().filter(|t| *t.get_ref() != 0.0) {
+            spec.adaptive = Some(AdaptiveSpec { threshold: *t.get_ref() as f32, min_samples });
+            if let Some(m) = spec.problem() {
+                return Err(at(t.span(), format!("render: {m}")));
             }
         }
         Ok(spec)
