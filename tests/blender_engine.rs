@@ -42,6 +42,8 @@ struct Room {
     dir: TempDir,
     blend: PathBuf,
     reference: PathBuf,
+    /// The camera's index in the exported glTF file, as the add-on passes it.
+    camera: String,
 }
 
 fn repo(path: &str) -> PathBuf {
@@ -135,7 +137,7 @@ fn room() -> Option<&'static Room> {
         args.extend(room_settings(&camera));
         let out = strahl(&args.iter().map(String::as_str).collect::<Vec<_>>());
         check(&out, "strahl render of the exported glTF file");
-        Some(Room { blend: dir.path("room.blend"), reference, dir })
+        Some(Room { blend: dir.path("room.blend"), reference, dir, camera })
     })
     .as_ref()
 }
@@ -277,6 +279,32 @@ fn border_render_with_crop_is_the_border_only() {
             (0..24).flat_map(|y| (16..48).map(move |x| (y, x))).map(|(y, x)| full[y * WIDTH + x]).collect();
         assert_eq!(bits(&got), bits(&want), "{name}: the border differs from that part of the frame");
     }
+}
+
+/// The panel's adaptive sampling reaches strahl: the frame is strahl's own render of the export
+/// with `--adaptive-threshold`, which differs from the uniform render at the same maximum.
+#[test]
+fn adaptive_sampling_from_the_panel_is_strahls() {
+    let Some(room) = room() else { return };
+    let expr = "import bpy; s = bpy.context.scene.strahl; s.samples = 64; s.use_adaptive_sampling = True; \
+                s.adaptive_threshold = 0.1";
+    let out = render(room, "adaptive", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let strahl_render = |name: &str, extra: &[&str]| {
+        let exr = room.dir.path(name);
+        let gltf = room.dir.path("reference/scene.gltf");
+        let camera = room.camera.clone();
+        let mut args = vec!["render".to_string(), gltf.display().to_string(), "-o".into(), exr.display().to_string()];
+        args.extend(room_settings(&camera).into_iter().map(|a| if a == "4" { "64".into() } else { a }));
+        args.extend(extra.iter().map(|s| s.to_string()));
+        check(&strahl(&args.iter().map(String::as_str).collect::<Vec<_>>()), name);
+        read_exr(&exr).2
+    };
+    let adaptive = strahl_render("adaptive.exr", &["--adaptive-threshold", "0.1"]);
+    let uniform = strahl_render("uniform.exr", &[]);
+    let r = |c: &[(String, Vec<f32>)]| bits(channel(c, "ViewLayer.Combined.R"));
+    assert_eq!(r(&blender), r(&adaptive), "the frame is strahl's adaptive render");
+    assert_ne!(r(&adaptive), r(&uniform), "adaptive sampling stopped no pixel: the test proves nothing");
 }
 
 #[test]

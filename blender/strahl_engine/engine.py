@@ -99,6 +99,11 @@ def strahl_arguments(binary, gltf, camera, exr, scene, view_layer, width, height
     args += ["--width", str(width), "--height", str(height)]
     args += ["--integrator", settings.integrator, "--spp", str(settings.samples), "--depth", str(settings.max_depth)]
     args += ["--backend", settings.backend]
+    if settings.integrator == "path" and settings.use_adaptive_sampling:
+        args += ["--adaptive-threshold", repr(float(settings.adaptive_threshold))]
+    # strahl denoises whole frames only (a border render is a region).
+    if settings.denoise and region is None:
+        args.append("--denoise")
     if settings.threads > 0:
         args += ["--threads", str(settings.threads)]
     args += ["--passes", ",".join(passes.requested(view_layer))]

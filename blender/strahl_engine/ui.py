@@ -6,7 +6,7 @@ colour management, film) are shown for strahl too.
 """
 
 import bpy
-from bpy.props import EnumProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
 from . import passes
 
@@ -38,6 +38,24 @@ class StrahlSettings(bpy.types.PropertyGroup):
     )
     samples: IntProperty(name="Samples", description="Samples per pixel (strahl takes up to 65536)", default=16, min=1, max=65536)
     max_depth: IntProperty(name="Max Depth", description="Longest chain of scattered rays", default=8, min=0, max=1024)
+    use_adaptive_sampling: BoolProperty(
+        name="Adaptive Sampling",
+        description="Stop sampling a pixel once its noise is below the threshold (path tracer only; Cycles' rule)",
+        default=False,
+    )
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold",
+        description="Cycles' noise threshold; Samples is then the maximum",
+        default=0.01,
+        min=0.0001,
+        max=1.0,
+        precision=4,
+    )
+    denoise: BoolProperty(
+        name="Denoise",
+        description="Denoise the frame with Intel Open Image Denoise (needs strahl built with `make oidn`; not with a border)",
+        default=False,
+    )
     threads: IntProperty(name="Threads", description="Worker threads; 0: one per core", default=0, min=0, max=4096)
     backend: EnumProperty(
         name="Backend",
@@ -64,7 +82,16 @@ class RENDER_PT_strahl(bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         settings = context.scene.strahl
-        for prop in ("integrator", "samples", "max_depth", "threads", "backend"):
+        for prop in ("integrator", "samples", "max_depth"):
+            layout.prop(settings, prop)
+        row = layout.row()
+        row.active = settings.integrator == "path"
+        row.prop(settings, "use_adaptive_sampling")
+        row = layout.row()
+        row.active = settings.integrator == "path" and settings.use_adaptive_sampling
+        row.prop(settings, "adaptive_threshold")
+        layout.prop(settings, "denoise")
+        for prop in ("threads", "backend"):
             layout.prop(settings, prop)
         layout.prop(context.scene.render, "film_transparent", text="Transparent")
 
