@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-slurm forest scale fuzz bench clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench clean
 
 all: build
 
@@ -96,8 +96,9 @@ blender-addon:
 
 # Readers strahl did not write, which tests use to check its files (they skip, saying so, when a
 # tool is missing): exrheader (openexr), oiiotool (openimageio-tools), Python's OpenEXR, mmh3 and
-# numpy; pygltflib and trimesh (glTF files written by another library; make forest); Mitsuba 3.
-TEST_PACKAGES := openexr openimageio-tools
+# numpy; pygltflib and trimesh (glTF files written by another library; make forest); Mitsuba 3;
+# Embree's tutorial path tracer `pathtracer` (embree-tools, tests/embree_pathtracer.rs).
+TEST_PACKAGES := openexr openimageio-tools embree-tools
 PIP_TEST_MODULES := OpenEXR mmh3 numpy pygltflib trimesh
 test-deps:
 	@missing=""; \
@@ -151,6 +152,17 @@ test-mitsuba: deps
 	  python3 -m pip install -q --disable-pip-version-check --user --break-system-packages mitsuba numpy 2>/dev/null || \
 	  python3 -m pip install -q --disable-pip-version-check mitsuba numpy
 	STRAHL_REQUIRE_MITSUBA=1 $(CARGO) test --locked $(DENOISE_FEATURE) --test mitsuba -- --nocapture
+
+# The path tracer against Embree's own tutorial path tracer (`pathtracer` of Debian's
+# embree-tools, 11 MB) on the Cornell box OBJ of the test meshes (tests/embree_pathtracer.rs,
+# docs/embree-pathtracer.md). `make test` installs embree-tools too and the test skips loudly
+# without it; here a missing `pathtracer` is a failure.
+test-embree-pathtracer: deps
+	@command -v pathtracer >/dev/null || { \
+	  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
+	  echo "installing: embree-tools"; \
+	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends embree-tools >/dev/null; }
+	STRAHL_REQUIRE_EMBREE_PATHTRACER=1 $(CARGO) test --locked $(DENOISE_FEATURE) --test embree_pathtracer -- --nocapture
 
 # A real one-node Slurm cluster on localhost (installs Debian's Slurm and munge when missing;
 # needs root): an 8-tile `strahl farm slurm` render merged equals a single-process render.

@@ -23,7 +23,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{TempDir, channel, read_exr, strahl};
+use common::{TempDir, block_means, block_sigmas, channel, read_exr, strahl};
 
 const SIZE: usize = 64;
 const DEPTH: u32 = 8;
@@ -73,35 +73,6 @@ fn rgb_sum(path: &Path, layer: &str, size: usize) -> Vec<f64> {
     (0..w * h).map(|i| r[i] as f64 + g[i] as f64 + b[i] as f64).collect()
 }
 
-/// Each block's noise: the standard error of its mean, from the RMS difference between each
-/// pixel and the mean of its four neighbours (variance `σ²·(1 + 1/4)` where the image is
-/// smooth; edges only make it larger), over the block's pixels that have four neighbours.
-fn block_sigmas(img: &[f64]) -> Vec<f64> {
-    let n = SIZE / BLOCK;
-    let (mut sums, mut counts) = (vec![0.0; n * n], vec![0usize; n * n]);
-    for y in 1..SIZE - 1 {
-        for x in 1..SIZE - 1 {
-            let i = y * SIZE + x;
-            let around = (img[i - 1] + img[i + 1] + img[i - SIZE] + img[i + SIZE]) / 4.0;
-            let k = (y / BLOCK) * n + x / BLOCK;
-            sums[k] += (img[i] - around).powi(2) / 1.25;
-            counts[k] += 1;
-        }
-    }
-    sums.iter().zip(&counts).map(|(s, &c)| (s / c as f64).sqrt() / ((BLOCK * BLOCK) as f64).sqrt()).collect()
-}
-
-fn block_means(img: &[f64]) -> Vec<f64> {
-    let n = SIZE / BLOCK;
-    let mut means = vec![0.0; n * n];
-    for y in 0..SIZE {
-        for x in 0..SIZE {
-            means[(y / BLOCK) * n + x / BLOCK] += img[y * SIZE + x] / (BLOCK * BLOCK) as f64;
-        }
-    }
-    means
-}
-
 fn render(dir: &TempDir, glb: &Path, name: &str, size: usize, spp: u32, extra: &[&str]) -> PathBuf {
     let exr = dir.path(name);
     let (size, spp, depth) = (size.to_string(), spp.to_string(), DEPTH.to_string());
@@ -133,8 +104,8 @@ fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
     let Some((glb, cycles_exr)) = blender_cornell(&dir.0, CYCLES_SPP, false) else { return };
     let strahl_exr = render(&dir, &glb, "strahl.exr", SIZE, STRAHL_SPP, &[]);
     let (s, c) = (rgb_sum(&strahl_exr, STRAHL_LAYER, SIZE), rgb_sum(&cycles_exr, "", SIZE));
-    let (sigma_s, sigma_c) = (block_sigmas(&s), block_sigmas(&c));
-    let (ms, mc) = (block_means(&s), block_means(&c));
+    let (sigma_s, sigma_c) = (block_sigmas(&s, SIZE, BLOCK), block_sigmas(&c, SIZE, BLOCK));
+    let (ms, mc) = (block_means(&s, SIZE, BLOCK), block_means(&c, SIZE, BLOCK));
     let mut worst = (0.0f64, 0);
     let mut failing = Vec::new();
     for k in 0..ms.len() {

@@ -327,3 +327,35 @@ pub fn fails(dir: &TempDir, args: &[&str]) -> String {
     assert_eq!(dir.entries(), before, "nothing written for {args:?}");
     stderr.trim_end().to_string()
 }
+
+/// The standard error of each `block` × `block` block's mean in a `size` × `size` image (row
+/// by row), from the image itself: in a smooth region a pixel's difference from the mean of
+/// its four neighbours has variance `σ²·(1 + 1/4)`, and a block of `n` pixels has `σ/√n`
+/// (edges inside a block only make this larger, so a test using it is conservative there);
+/// over the block's pixels that have four neighbours.
+pub fn block_sigmas(img: &[f64], size: usize, block: usize) -> Vec<f64> {
+    let n = size / block;
+    let (mut sums, mut counts) = (vec![0.0; n * n], vec![0usize; n * n]);
+    for y in 1..size - 1 {
+        for x in 1..size - 1 {
+            let i = y * size + x;
+            let around = (img[i - 1] + img[i + 1] + img[i - size] + img[i + size]) / 4.0;
+            let k = (y / block) * n + x / block;
+            sums[k] += (img[i] - around).powi(2) / 1.25;
+            counts[k] += 1;
+        }
+    }
+    sums.iter().zip(&counts).map(|(s, &c)| (s / c as f64).sqrt() / ((block * block) as f64).sqrt()).collect()
+}
+
+/// The mean of each `block` × `block` block of a `size` × `size` image (row by row).
+pub fn block_means(img: &[f64], size: usize, block: usize) -> Vec<f64> {
+    let n = size / block;
+    let mut means = vec![0.0; n * n];
+    for y in 0..size {
+        for x in 0..size {
+            means[(y / block) * n + x / block] += img[y * size + x] / (block * block) as f64;
+        }
+    }
+    means
+}
