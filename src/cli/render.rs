@@ -77,10 +77,12 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Backend::Embree)]
     backend: Backend,
     /// The passes to write, comma-separated (overrides the scene's `[output] passes`):
-    /// `default`, `all`, or names from combined, depth, normal, albedo, emission, diffuse,
-    /// specular, reflection, transmission, background, position, object_index,
-    /// material_index, crypto_object, crypto_material, disagreement (the camera rays traced
-    /// through both backends; not in `all`), sample_count, variance.
+    /// `default`, `all`, `light`, `diffuse`, `glossy`, `transmission` (a family's direct,
+    /// indirect and colour passes), or names from combined, depth, normal, albedo, emission,
+    /// diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect, glossy_color,
+    /// transmission_direct, transmission_indirect, transmission_color, background, position,
+    /// object_index, material_index, crypto_object, crypto_material, disagreement (the camera
+    /// rays traced through both backends; not in `all`), sample_count, variance.
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     passes: Option<Vec<String>>,
     /// Render the background transparent: rays that escape give RGBA 0, alpha is coverage.
