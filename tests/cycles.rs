@@ -23,7 +23,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{TempDir, block_means, block_sigmas, channel, read_exr, strahl};
+use common::{TempDir, channel, read_exr, strahl};
 
 const SIZE: usize = 64;
 const DEPTH: u32 = 8;
@@ -104,28 +104,14 @@ fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
     let Some((glb, cycles_exr)) = blender_cornell(&dir.0, CYCLES_SPP, false) else { return };
     let strahl_exr = render(&dir, &glb, "strahl.exr", SIZE, STRAHL_SPP, &[]);
     let (s, c) = (rgb_sum(&strahl_exr, STRAHL_LAYER, SIZE), rgb_sum(&cycles_exr, "", SIZE));
-    let (sigma_s, sigma_c) = (block_sigmas(&s, SIZE, BLOCK), block_sigmas(&c, SIZE, BLOCK));
-    let (ms, mc) = (block_means(&s, SIZE, BLOCK), block_means(&c, SIZE, BLOCK));
-    let mut worst = (0.0f64, 0);
-    let mut failing = Vec::new();
-    for k in 0..ms.len() {
-        let z = (ms[k] - mc[k]) / (sigma_s[k].powi(2) + sigma_c[k].powi(2)).sqrt();
-        if z.abs() > worst.0.abs() {
-            worst = (z, k);
-        }
-        if z.abs() > 4.0 {
-            let (a, b) = (ms[k], mc[k]);
-            failing.push(format!("block {k} (x {}, y {}): strahl {a:.4}, Cycles {b:.4}, z {z:.1}", k % 8, k / 8));
-        }
-    }
-    let (sum_s, sum_c) = (s.iter().sum::<f64>(), c.iter().sum::<f64>());
-    let relative = (sum_s - sum_c) / sum_c;
+    let cmp = common::compare_blocks(&s, &c, SIZE, BLOCK, "Cycles");
+    let (failing, relative) = (&cmp.failing, cmp.relative);
     eprintln!(
         "strahl vs Cycles: worst z {:.2} (block {}), image mean {:.5} vs {:.5} ({:+.3} %)",
-        worst.0,
-        worst.1,
-        sum_s / s.len() as f64,
-        sum_c / c.len() as f64,
+        cmp.worst.0,
+        cmp.worst.1,
+        cmp.means.0,
+        cmp.means.1,
         100.0 * relative
     );
     assert!(failing.is_empty(), "blocks beyond 4 σ:\n{}", failing.join("\n"));

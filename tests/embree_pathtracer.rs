@@ -23,7 +23,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{TempDir, block_means, block_sigmas, channel, read_exr, strahl};
+use common::{TempDir, channel, read_exr, strahl};
 
 const SIZE: usize = 64;
 const BLOCK: usize = 8;
@@ -156,32 +156,14 @@ fn path_tracer_agrees_with_embrees_pathtracer_on_the_cornell_box() {
     let obj = cornell_without_emission(&dir, &data);
     let e = embree_render(&dir, &obj);
     let s = strahl_render(&dir, &strahl_scene(&dir));
-    let (sigma_s, sigma_e) = (block_sigmas(&s, SIZE, BLOCK), block_sigmas(&e, SIZE, BLOCK));
-    let (ms, me) = (block_means(&s, SIZE, BLOCK), block_means(&e, SIZE, BLOCK));
-    let n = SIZE / BLOCK;
-    let mut worst = (0.0f64, 0);
-    let mut failing = Vec::new();
-    for k in 0..ms.len() {
-        let z = (ms[k] - me[k]) / (sigma_s[k].powi(2) + sigma_e[k].powi(2)).sqrt();
-        if z.abs() > worst.0.abs() {
-            worst = (z, k);
-        }
-        if z.abs() > 4.0 {
-            let (a, b) = (ms[k], me[k]);
-            failing.push(format!("block {k} (x {}, y {}): strahl {a:.4}, Embree {b:.4}, z {z:.1}", k % n, k / n));
-        }
-    }
-    let (sum_s, sum_e) = (s.iter().sum::<f64>(), e.iter().sum::<f64>());
-    let relative = (sum_s - sum_e) / sum_e;
-    // The image mean is the mean of the block means, its standard error from the blocks'.
-    let var: f64 = sigma_s.iter().chain(&sigma_e).map(|s| s * s).sum();
-    let z_image = (sum_s - sum_e) / s.len() as f64 / (var.sqrt() / ms.len() as f64);
+    let cmp = common::compare_blocks(&s, &e, SIZE, BLOCK, "Embree");
+    let (failing, relative, z_image) = (&cmp.failing, cmp.relative, cmp.z_image);
     eprintln!(
         "strahl vs Embree's pathtracer: worst z {:.2} (block {}), image mean {:.5} vs {:.5} ({:+.3} %, z {z_image:.2})",
-        worst.0,
-        worst.1,
-        sum_s / s.len() as f64,
-        sum_e / e.len() as f64,
+        cmp.worst.0,
+        cmp.worst.1,
+        cmp.means.0,
+        cmp.means.1,
         100.0 * relative
     );
     assert!(failing.is_empty(), "blocks beyond 4 σ:\n{}", failing.join("\n"));

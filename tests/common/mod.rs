@@ -359,3 +359,44 @@ pub fn block_means(img: &[f64], size: usize, block: usize) -> Vec<f64> {
     }
     means
 }
+
+/// Two renders of one image compared in blocks within their noise ([`block_means`],
+/// [`block_sigmas`]): `strahl` against `other` (named `name` in the messages).
+pub struct BlockComparison {
+    /// The largest |z| of a block, signed, and that block.
+    pub worst: (f64, usize),
+    /// A line for every block beyond 4 σ.
+    pub failing: Vec<String>,
+    /// The image means.
+    pub means: (f64, f64),
+    /// (strahl − other) / other of the image means.
+    pub relative: f64,
+    /// The difference of the image means over its standard error (from the blocks').
+    pub z_image: f64,
+}
+
+/// Compares `strahl` with `other`, both `size × size` values, in blocks of `block × block`.
+pub fn compare_blocks(strahl: &[f64], other: &[f64], size: usize, block: usize, name: &str) -> BlockComparison {
+    let (sigma_s, sigma_o) = (block_sigmas(strahl, size, block), block_sigmas(other, size, block));
+    let (ms, mo) = (block_means(strahl, size, block), block_means(other, size, block));
+    let n = size / block;
+    let mut worst = (0.0f64, 0);
+    let mut failing = Vec::new();
+    for k in 0..ms.len() {
+        let z = (ms[k] - mo[k]) / (sigma_s[k].powi(2) + sigma_o[k].powi(2)).sqrt();
+        if z.abs() > worst.0.abs() {
+            worst = (z, k);
+        }
+        if z.abs() > 4.0 {
+            let (a, b) = (ms[k], mo[k]);
+            failing.push(format!("block {k} (x {}, y {}): strahl {a:.4}, {name} {b:.4}, z {z:.1}", k % n, k / n));
+        }
+    }
+    let (sum_s, sum_o) = (strahl.iter().sum::<f64>(), other.iter().sum::<f64>());
+    let relative = (sum_s - sum_o) / sum_o;
+    // The image mean is the mean of the block means, its standard error from the blocks'.
+    let var: f64 = sigma_s.iter().chain(&sigma_o).map(|s| s * s).sum();
+    let z_image = (sum_s - sum_o) / strahl.len() as f64 / (var.sqrt() / ms.len() as f64);
+    let means = (sum_s / strahl.len() as f64, sum_o / other.len() as f64);
+    BlockComparison { worst, failing, means, relative, z_image }
+}
