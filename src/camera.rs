@@ -162,6 +162,13 @@ impl Camera {
         (self.l, self.r, self.b, self.t)
     }
 
+    /// The depth of `p` along the view axis: `−w·(p − e)`, its `z` in camera space (Blender's
+    /// Depth pass, Cycles' `camera_z_depth`; for a point on a pixel's primary ray of length `t`,
+    /// `t·cos θ` with θ the ray's angle to the view axis). Computed in f64, rounded once.
+    pub fn depth_of(&self, p: Vec3) -> f32 {
+        (-self.w).dot(p.as_dvec3() - self.eye) as f32
+    }
+
     /// Image size in pixels.
     pub fn size(&self) -> (u32, u32) {
         (self.width, self.height)

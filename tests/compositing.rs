@@ -225,14 +225,20 @@ fn world_to_camera_maps_the_position_pass_onto_the_depth_pass() {
     let out = dir.path("cam.exr");
     let (w, h) = (40usize, 30usize);
     // One sample: the position is then that of the pixel-centre ray (NDC checked below).
-    render(&scene_path("whitted.toml"), &out, w as u32, h as u32, &["--passes", "default,position", "--spp", "1"]);
+    render(
+        &scene_path("whitted.toml"),
+        &out,
+        w as u32,
+        h as u32,
+        &["--passes", "default,position,distance", "--spp", "1"],
+    );
     // One read for the header's matrices and the channels.
     let image = read_exr_image(&out);
     let attrs = &image.layer_data[0].attributes;
     let to_camera = attrs.world_to_camera.expect("worldToCamera");
     let to_ndc = attrs.world_to_normalized_device.expect("worldToNDC");
     let ch = float_channels(&image.layer_data[0]);
-    let z = channel(&ch, "ViewLayer.Depth.Z");
+    let (z, d) = (channel(&ch, "ViewLayer.Depth.Z"), channel(&ch, "ViewLayer.Distance.Z"));
     let p: Vec<&[f32]> = ["X", "Y", "Z"].iter().map(|c| channel(&ch, &format!("ViewLayer.Position.{c}"))).collect();
     let mut hits = 0;
     for y in 0..h {
@@ -244,9 +250,11 @@ fn world_to_camera_maps_the_position_pass_onto_the_depth_pass() {
             hits += 1;
             let world = DVec3::new(p[0][i] as f64, p[1][i] as f64, p[2][i] as f64);
             let c = apply(&to_camera, world);
-            let distance = DVec3::new(c[0], c[1], c[2]).length();
-            assert!((distance - z[i] as f64).abs() <= 1e-5 * z[i] as f64, "pixel ({x}, {y}): {distance} vs {}", z[i]);
-            assert!(c[2] > 0.0, "in front of the camera");
+            // Depth is camera-space z (Blender's), the distance pass the ray's length.
+            assert!((c[2] - z[i] as f64).abs() <= 1e-5 * z[i] as f64, "pixel ({x}, {y}): z {} vs {}", c[2], z[i]);
+            let length = DVec3::new(c[0], c[1], c[2]).length();
+            assert!((length - d[i] as f64).abs() <= 1e-5 * d[i] as f64, "pixel ({x}, {y}): {length} vs {}", d[i]);
+            assert!(c[2] > 0.0 && d[i] >= z[i], "pixel ({x}, {y}): in front of the camera");
             let n = apply(&to_ndc, world);
             let (nx, ny) = (n[0] / n[3], n[1] / n[3]);
             assert!((nx - (x as f64 + 0.5) / w as f64).abs() < 1e-4, "pixel ({x}, {y}): NDC x {nx}");

@@ -32,9 +32,10 @@ const STRAHL_SPP: u32 = 1024;
 const BLOCK: usize = 8;
 const STRAHL_LAYER: &str = "ViewLayer.Combined.";
 
-/// The exported glTF file and Cycles' render of it (`spp` samples; 0: none), in `dir`; the
-/// script's closed variant if `opaque`; `None` (with a loud message) when Blender is missing.
-fn blender_cornell(dir: &Path, spp: u32, opaque: bool) -> Option<(PathBuf, PathBuf)> {
+/// The exported glTF file and Cycles' render of it (`spp` samples; 0: none), in `dir`, of
+/// `size` × `size` pixels; `flags` are the script's (`opaque`: the closed variant; `passes`: a
+/// multilayer EXR with Depth and Cryptomatte); `None` (with a loud message) when Blender is missing.
+fn blender_cornell(dir: &Path, size: usize, spp: u32, flags: &[&str]) -> Option<(PathBuf, PathBuf)> {
     if Command::new("blender").arg("--version").output().is_err() {
         assert!(
             std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
@@ -49,8 +50,8 @@ fn blender_cornell(dir: &Path, spp: u32, opaque: bool) -> Option<(PathBuf, PathB
         .arg(&script)
         .arg("--")
         .arg(dir)
-        .args([SIZE.to_string(), spp.to_string(), DEPTH.to_string()])
-        .args(opaque.then_some("opaque"))
+        .args([size.to_string(), spp.to_string(), DEPTH.to_string()])
+        .args(flags)
         .output()
         .expect("blender runs");
     let (glb, exr) = (dir.join("cornell.gltf"), dir.join("cycles.exr"));
@@ -81,8 +82,6 @@ fn render(dir: &TempDir, glb: &Path, name: &str, size: usize, spp: u32, extra: &
         glb.to_str().unwrap(),
         "-o",
         exr.to_str().unwrap(),
-        "--integrator",
-        "path",
         "--width",
         &size,
         "--height",
@@ -101,8 +100,8 @@ fn render(dir: &TempDir, glb: &Path, name: &str, size: usize, spp: u32, extra: &
 #[test]
 fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
     let dir = TempDir::new("cycles");
-    let Some((glb, cycles_exr)) = blender_cornell(&dir.0, CYCLES_SPP, false) else { return };
-    let strahl_exr = render(&dir, &glb, "strahl.exr", SIZE, STRAHL_SPP, &[]);
+    let Some((glb, cycles_exr)) = blender_cornell(&dir.0, SIZE, CYCLES_SPP, &[]) else { return };
+    let strahl_exr = render(&dir, &glb, "strahl.exr", SIZE, STRAHL_SPP, &["--integrator", "path"]);
     let (s, c) = (rgb_sum(&strahl_exr, STRAHL_LAYER, SIZE), rgb_sum(&cycles_exr, "", SIZE));
     let cmp = common::compare_blocks(&s, &c, SIZE, BLOCK, "Cycles");
     let (failing, relative) = (&cmp.failing, cmp.relative);
@@ -121,7 +120,7 @@ fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
 #[test]
 fn the_closed_room_has_no_black_pixel_and_both_backends_agree() {
     let dir = TempDir::new("cycles-seams");
-    let Some((glb, _)) = blender_cornell(&dir.0, 0, true) else { return };
+    let Some((glb, _)) = blender_cornell(&dir.0, SIZE, 0, &["opaque"]) else { return };
     // The closed room seen from inside (the `opaque` variant of the script: the glass sphere
     // diffuse, the spheres off the floor, a front wall): every path stays in the room until
     // it finds the light or ends, so a pixel whose 32 paths all bring nothing is a seam where
@@ -129,7 +128,14 @@ fn the_closed_room_has_no_black_pixel_and_both_backends_agree() {
     const SEAM_SIZE: usize = 240;
     let mut means = Vec::new();
     for backend in ["embree", "native"] {
-        let exr = render(&dir, &glb, &format!("{backend}.exr"), SEAM_SIZE, 32, &["--backend", backend]);
+        let exr = render(
+            &dir,
+            &glb,
+            &format!("{backend}.exr"),
+            SEAM_SIZE,
+            32,
+            &["--integrator", "path", "--backend", backend],
+        );
         let img = rgb_sum(&exr, STRAHL_LAYER, SEAM_SIZE);
         let black: Vec<usize> = (0..img.len()).filter(|&i| img[i] <= 0.0).collect();
         let first = black.first().map(|i| (i % SEAM_SIZE, i / SEAM_SIZE));
@@ -142,4 +148,69 @@ fn the_closed_room_has_no_black_pixel_and_both_backends_agree() {
     // and 1.504, 10 % dark), with no pixel black.
     let relative = (means[0] - means[1]).abs() / means[1];
     assert!(relative < 1e-3, "embree mean {} vs native {}", means[0], means[1]);
+}
+
+/// Blender's Depth and a Cryptomatte pick by Cycles' object name, on the same glTF file.
+///
+/// Depth: Cycles renders one sample per pixel at the pixel centre (box filter 0.01 px wide) and
+/// writes that sample's `camera_z_depth`; strahl renders the pixel-centre ray (Whitted, 1 spp).
+/// Both are the camera-space z of the same point, so they agree to float rounding but for
+/// Cycles' ±0.005 px jitter, which moves a surface's depth by at most 0.005 × its change from
+/// one pixel to the next.
+///
+/// Cryptomatte: both render 256 samples with a one-pixel box filter; each object of Cycles'
+/// manifest, picked by name in both files, gives the same soft matte (IoU Σ min / Σ max of the
+/// two coverages ≥ 99 %; the differences are the two samplers' noise along edges).
+#[test]
+fn depth_and_cryptomatte_picks_agree_with_cycles_on_the_same_gltf() {
+    const N: usize = 128;
+    let dir = TempDir::new("cycles-passes");
+    let Some((gltf, cycles_exr)) = blender_cornell(&dir.0, N, 1, &["passes", "centre"]) else { return };
+    let args = ["--integrator", "whitted", "--passes", "depth,crypto_object"];
+    let strahl_exr = render(&dir, &gltf, "strahl-depth.exr", N, 1, &args);
+    let ((_, _, c), (_, _, s)) = (read_exr(&cycles_exr), read_exr(&strahl_exr));
+    let (cz, sz) = (channel(&c, "ViewLayer.Depth.Z"), channel(&s, "ViewLayer.Depth.Z"));
+    let (mut worst, mut worst_excess, mut worst_flat, mut flat, mut compared) = (0f64, 0f64, 0f64, 0, 0);
+    for y in 1..N - 1 {
+        for x in 1..N - 1 {
+            let i = y * N + x;
+            let z = sz[i] as f64;
+            let step = [i - 1, i + 1, i - N, i + N].iter().map(|&j| (sz[j] as f64 - z).abs()).fold(0.0, f64::max);
+            if step > 0.05 * z {
+                continue; // a silhouette: the jittered sample may hit the other surface
+            }
+            compared += 1;
+            let diff = (cz[i] as f64 - z).abs();
+            worst = worst.max(diff / z);
+            worst_excess = worst_excess.max((diff - 0.005 * step) / z);
+            if step < 1e-6 * z {
+                flat += 1;
+                worst_flat = worst_flat.max(diff / z);
+            }
+        }
+    }
+    eprintln!(
+        "Depth vs Cycles on {compared} pixels: at most {worst:.2e} relative, {worst_excess:.2e} beyond the jitter's \
+         reach; on the {flat} pixels where depth is flat, at most {worst_flat:.2e}"
+    );
+    assert!(compared > N * N * 8 / 10, "{compared} pixels compared");
+    assert!(worst_excess <= 1e-5, "Depth differs from Cycles' by {worst_excess:e} beyond the jitter");
+    assert!(flat > 1000 && worst_flat <= 1e-5, "Depth differs from Cycles' by {worst_flat:e} where it is flat");
+
+    let Some((_, cycles_exr)) = blender_cornell(&dir.0, N, 256, &["passes"]) else { return };
+    let strahl_exr = render(&dir, &gltf, "strahl-crypto.exr", N, 256, &args);
+    let ((_, _, c), (_, _, s)) = (read_exr(&cycles_exr), read_exr(&strahl_exr));
+    let mut picked = 0;
+    for name in ["floor", "back", "left", "right", "ceiling", "light", "block", "metal", "glass"] {
+        let Some(cm) = common::crypto_matte(&cycles_exr, &c, name) else { continue };
+        let sm = common::crypto_matte(&strahl_exr, &s, name)
+            .unwrap_or_else(|| panic!("strahl's manifest lacks Cycles' object {name:?}"));
+        let inter: f64 = cm.iter().zip(&sm).map(|(&a, &b)| a.min(b) as f64).sum();
+        let union: f64 = cm.iter().zip(&sm).map(|(&a, &b)| a.max(b) as f64).sum();
+        let iou = inter / union.max(1e-9);
+        eprintln!("Cryptomatte pick {name:?}: {union:.1} pixels, IoU {iou:.4}");
+        assert!(union > 10.0 && iou >= 0.99, "{name}: IoU {iou}");
+        picked += 1;
+    }
+    assert!(picked == 9, "only {picked} of the room's 9 objects are in Cycles' manifest");
 }

@@ -75,7 +75,12 @@ fn one_sample_per_pixel_is_exactly_the_pixel_centre_ray() {
             let i = film.index(x, y);
             // An opaque frame: alpha 1 everywhere, the sky in RGB.
             assert_eq!(film.rgba[i], [rgb.x, rgb.y, rgb.z, 1.0], "pixel ({x}, {y})");
-            assert_eq!(film.depth[i], first.map_or(f32::INFINITY, |f| f.t));
+            assert_eq!(film.depth[i], first.map_or(f32::INFINITY, |f| camera.depth_of(f.p)));
+            if let Some(f) = first {
+                // Depth is along the view axis: the ray's length times its cosine to the axis.
+                let along = f.t as f64 * ray.dir.as_dvec3().dot(-camera.basis().2.as_dvec3());
+                assert!((film.depth[i] as f64 - along).abs() <= 1e-6 * along, "pixel ({x}, {y})");
+            }
             assert_eq!(film.normal[i], first.map_or(Vec3::ZERO, |f| f.normal));
         }
     }
@@ -154,19 +159,22 @@ fn the_cornell_box_renders_as_its_camera_rays_shaded_one_by_one() {
             let index = (y * w + x) as u64;
             let mut offsets = sampler::PixelSampler::new(spp, index);
             let mut dims = SampleDims::new(spp, index, true, false);
-            let (mut sum, mut nearest) = (Vec3::ZERO, f32::INFINITY);
+            let (mut sum, mut nearest) = (Vec3::ZERO, None::<strahl::integrator::FirstHit>);
             for s in 0..spp {
                 dims.begin(s);
                 let ray = camera.ray(x, y, offsets.next_offset());
                 let hit = accel.intersect(&ray).unwrap();
                 let (rgb, first) = whitted.shade_primary(&ray, hit.as_ref(), &mut dims, &mut by_hand).unwrap();
                 sum += rgb;
-                nearest = nearest.min(first.map_or(f32::INFINITY, |f| f.t));
+                if let Some(f) = first.filter(|f| nearest.is_none_or(|n| f.t < n.t)) {
+                    nearest = Some(f);
+                }
             }
             let mean = sum / spp as f32;
             let i = film.index(x, y);
             assert_eq!(film.rgba[i], [mean.x, mean.y, mean.z, 1.0], "pixel ({x}, {y})");
-            assert_eq!(film.depth[i].to_bits(), nearest.to_bits(), "depth of pixel ({x}, {y})");
+            let depth = nearest.map_or(f32::INFINITY, |f| camera.depth_of(f.p));
+            assert_eq!(film.depth[i].to_bits(), depth.to_bits(), "depth of pixel ({x}, {y})");
         }
     }
     by_hand.primary = (w * h * spp) as u64;

@@ -507,3 +507,57 @@ fn whitted(mut scene: strahl::scene::Scene) -> strahl::scene::Scene {
     scene.render.integrator = strahl::scene::IntegratorKind::Whitted;
     scene
 }
+
+/// The header keys Blender writes into a render (its stamp): `Camera` is the glTF camera's
+/// node name (Blender's importer names the camera object after it), `Scene` and `File` the
+/// scene file's, `Frame` and `Time` from `--frame` and `--fps`; and every key of Cycles' own
+/// multilayer file (../shared/data/reference) is in strahl's.
+#[test]
+fn the_header_carries_the_keys_blender_writes() {
+    let dir = TempDir::new("gltf-header");
+    let (mut g, _) = hierarchy_scene();
+    g.nodes
+        .iter_mut()
+        .filter(|n| n.contains(r#""camera":0"#))
+        .for_each(|n| *n = n.replacen('{', r#"{"name":"Front Cam","#, 1));
+    let path = dir.write("shot 12.gltf", g.json());
+    let out = dir.path("shot.exr");
+    let args =
+        ["render", path.to_str().unwrap(), "--width", "8", "--height", "6", "--spp", "3", "--integrator", "whitted"];
+    // Without SOURCE_DATE_EPOCH, so that the date and render times are written as well.
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args([&args[..], &["--frame", "37", "--fps", "25", "-o", out.to_str().unwrap()]].concat())
+        .env_remove("SOURCE_DATE_EPOCH")
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let image = common::read_exr_image(&out);
+    let text_of = |image: &exr::image::FlatImage, key: &str| {
+        image.layer_data[0].attributes.other.get(&exr::prelude::Text::from(key)).map(|v| match v {
+            exr::meta::attribute::AttributeValue::Text(t) => t.to_string(),
+            other => format!("{other:?}"),
+        })
+    };
+    let get = |key: &str| text_of(&image, key).unwrap_or_else(|| panic!("no {key} in the header"));
+    assert_eq!(get("Camera"), "Front Cam");
+    assert_eq!((get("Scene"), get("File")), ("shot 12".to_string(), "shot 12.gltf".to_string()));
+    assert_eq!((get("Frame"), get("Time")), ("037".to_string(), "00:00:01:12".to_string()));
+    assert_eq!(get("cycles.ViewLayer.samples"), "3");
+    assert_eq!(get("BlenderMultiChannel"), "Blender V2.55.1 and newer");
+    // Nuke's layout is no Blender multilayer file.
+    let nuke = dir.path("nuke.exr");
+    let run = strahl(&[&args[..], &["--exr-layout", "nuke", "-o", nuke.to_str().unwrap()]].concat());
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(text_of(&common::read_exr_image(&nuke), "BlenderMultiChannel"), None);
+
+    let Some(data) = common::data_dir() else { return };
+    let reference = data.join("../reference/blender-3.4-cycles-multilayer-cryptomatte.exr");
+    let cycles = common::read_exr_image(&reference);
+    for key in cycles.layer_data[0].attributes.other.keys().map(|k| k.to_string()) {
+        // Cycles' scene-synchronisation and total times: strahl has no such phases to time.
+        if key.starts_with("cryptomatte/") || key.ends_with(".synchronization_time") || key.ends_with(".total_time") {
+            continue;
+        }
+        assert!(text_of(&image, &key).is_some(), "Cycles writes {key}, strahl does not");
+    }
+}

@@ -52,7 +52,7 @@ fn gpu_instancing_places_125_boxes_each_at_its_depth() {
         let x = ((su + r) / (2.0 * r) * w as f64 - 0.5).round() as u32;
         let y = ((t - sv) / (2.0 * t) * h as f64 - 0.5).round() as u32;
         let (org, dir) = lecture_ray(&scene.camera, w, h, x, y);
-        let expected = (front.z - org.z) / dir.z;
+        let expected = common::axis_depth(&scene.camera, dir, (front.z - org.z) / dir.z);
         let got = film.depth[(y * w + x) as usize] as f64;
         assert!(
             (got - expected).abs() < 1e-4 * expected,

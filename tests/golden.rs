@@ -28,14 +28,15 @@ const HEIGHT: u32 = 72;
 
 /// (scene, native BVH hash, Embree hash)
 const GOLDEN: &[(&str, u64, u64)] = &[
-    // Shading re-solves every triangle hit's t, u, v in f64 on the world-space
-    // triangle: the mesh scenes changed in their last bits, and both backends now agree.
-    ("blob", 0x4c0f_4cae_968d_737b, 0x4c0f_4cae_968d_737b),
-    ("cornell", 0xa668_d636_2746_bae8, 0xa668_d636_2746_bae8), // area light since issue 13
-    ("cornell-path", 0x9492_cba8_2620_e110, 0x9492_cba8_2620_e110), // the path tracer (issue 32)
-    ("lecture", 0x1ba9_6bd1_bbfb_a22c, 0x1ba9_6bd1_bbfb_a22c),
-    ("spheres", 0x973f_abf9_e0b1_ba75, 0x973f_abf9_e0b1_ba75),
-    ("whitted", 0xace1_ecd7_726a_67a0, 0xace1_ecd7_726a_67a0),
+    // Depth is the view-axis depth (Blender's) and normal and albedo are coverage-weighted
+    // (Cycles'), issue 29: RGBA hashes as before on every scene, and the former depth (the
+    // ray's length) is now the `distance` pass, bit for bit.
+    ("blob", 0x265a_98e1_e050_e0ac, 0x265a_98e1_e050_e0ac),
+    ("cornell", 0x01dc_5431_2a4b_046d, 0x01dc_5431_2a4b_046d),
+    ("cornell-path", 0x3598_83c3_ac28_9ff1, 0x3598_83c3_ac28_9ff1),
+    ("lecture", 0x4673_5f6d_5fce_910c, 0x4673_5f6d_5fce_910c),
+    ("spheres", 0x336b_2220_7080_eeb8, 0x336b_2220_7080_eeb8),
+    ("whitted", 0x0b6d_edcb_95e8_9ba9, 0x0b6d_edcb_95e8_9ba9),
 ];
 
 /// The Embree release and ISA the Embree column was recorded with (`strahl --version`).

@@ -99,6 +99,8 @@ fn a_job_with_an_output_writes_its_pixels_and_leaves_no_checkpoint() {
         compression: Compression::Zip,
         checkpoint_every: 0.0,
         resume: false,
+        frame: 1,
+        fps: 24,
     };
     output.check().unwrap();
     let job = job(Settings { output: Some(output), ..settings(Backend::Native) });
@@ -140,6 +142,8 @@ fn a_jobs_settings_are_checked_against_its_scene() {
         compression: Compression::Piz,
         checkpoint_every: 60.0,
         resume: false,
+        frame: 1,
+        fps: 24,
     };
     assert!(output.check().unwrap_err().to_string().contains("must have the extension .exr"));
     output.exr = path.with_extension("exr");

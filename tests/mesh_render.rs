@@ -196,11 +196,12 @@ fn cornell_box_obj_has_its_mtl_radiance_under_a_point_light() {
                 assert!(rel(got, want) <= 1e-4, "pixel ({x}, {y}) on {mtl}, channel {c}: {got} vs {want}");
             }
             assert_eq!(film.rgba[i][3], 1.0);
-            assert!(rel(film.depth[i], t) <= 1e-5, "pixel ({x}, {y}): Z {} vs {t}", film.depth[i]);
+            let z = common::axis_depth(&scene.camera, dir, t);
+            assert!(rel(film.depth[i], z) <= 1e-5, "pixel ({x}, {y}): Z {} vs {z}", film.depth[i]);
             assert!((film.albedo[i].as_dvec3() - DVec3::from(kd)).length() < 1e-6, "pixel ({x}, {y}): albedo");
             if mtl == "floor" {
                 // The floor is the plane y = 0: the hit lies at t = −e_y / d_y along the ray.
-                let analytic = -org.y / dir.y;
+                let analytic = common::axis_depth(&scene.camera, dir, -org.y / dir.y);
                 assert!(rel(film.depth[i], analytic) <= 1e-5, "pixel ({x}, {y}): Z {} vs {analytic}", film.depth[i]);
                 floor_depths += 1;
             }
@@ -252,7 +253,9 @@ fn bunny_ply_depth_normals_and_coverage_match_brute_force() {
         .par_iter()
         .map(|&(x, y)| {
             let (org, dir) = lecture_ray(&scene.camera, w, h, x, y);
-            soup.first_hit(org, dir).map(|first| first.map(|(t, tri)| (t, soup.normal_facing(tri, dir))))
+            soup.first_hit(org, dir).map(|first| {
+                first.map(|(t, tri)| (common::axis_depth(&scene.camera, dir, t), soup.normal_facing(tri, dir)))
+            })
         })
         .collect();
     let (mut hits, mut misses, mut ambiguous, mut worst_z, mut worst_n) = (0, 0, 0, 0f64, 0f64);

@@ -25,7 +25,7 @@ pub struct OutputArgs {
     /// Channel naming of the EXR: Blender's multilayer names, or Nuke's.
     #[arg(long, value_enum, default_value_t = LayoutArg::Blender)]
     pub exr_layout: LayoutArg,
-    /// Store colour passes and normals as half floats (depth, position, indices, Cryptomatte stay float32).
+    /// Store colour passes and normals as half floats (depth, distance, position, indices, Cryptomatte stay float32).
     #[arg(long)]
     pub half: bool,
     /// EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a.
@@ -40,6 +40,13 @@ pub struct OutputArgs {
     /// result is the same bytes as an uninterrupted render.
     #[arg(long)]
     pub resume: bool,
+    /// The frame number the image is of, written to the EXR header as Blender's `Frame` and
+    /// `Time` (a farm or the Blender add-on rendering an animation passes it); no pixel changes.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub frame: u32,
+    /// Frames per second for the header's `Time` timecode (`hh:mm:ss:ff`).
+    #[arg(long, value_name = "FPS", default_value_t = 24, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub fps: u32,
 }
 
 impl OutputArgs {
@@ -54,6 +61,8 @@ impl OutputArgs {
             compression: self.compression,
             checkpoint_every: self.checkpoint_every,
             resume: self.resume,
+            frame: self.frame,
+            fps: self.fps,
         }
     }
 }

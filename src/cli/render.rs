@@ -81,7 +81,7 @@ pub struct RenderArgs {
     /// indirect and colour passes), or names from combined, depth, normal, albedo, emission,
     /// diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect, glossy_color,
     /// transmission_direct, transmission_indirect, transmission_color, background, position,
-    /// object_index, material_index, crypto_object, crypto_material, disagreement (the camera
+    /// distance, object_index, material_index, crypto_object, crypto_material, disagreement (the camera
     /// rays traced through both backends; not in `all`), sample_count, variance.
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     passes: Option<Vec<String>>,

@@ -241,7 +241,7 @@ pub fn trace_tiles<A: Accel, I: Integrator>(
             {
                 let mut film = film.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
                 for (&(x, y), acc) in pixels.iter().zip(&accumulators) {
-                    acc.write(&mut film, x, y, scene, &ids);
+                    acc.write(&mut film, x, y, scene, camera, &ids);
                 }
             }
             (job.progress)(tile.pixel_count());

@@ -5,8 +5,9 @@
 //! first ([`FirstHit`], for the AOVs). A [`PixelAccumulator`] adds a pixel's samples in sample
 //! order (so deterministically) and writes the box filter of them to the film: the mean over
 //! the pixel's samples (all `spp`, or fewer where adaptive sampling stopped it,
-//! [`super::adaptive`]) for RGB, alpha and the light-path passes, over the samples that hit for
-//! normal and albedo, the nearest hit for depth, position and the index passes, the
+//! [`super::adaptive`]) for RGB, alpha, the light-path passes, normal and the colours (a
+//! sample that hits nothing counting 0), the nearest hit for depth, distance, position and the
+//! index passes, the
 //! Cryptomatte ranks of the objects and materials hit, and the fraction of samples whose camera
 //! ray two backends saw differently (what each channel holds:
 //! [`crate::output::film`]).
@@ -14,6 +15,7 @@
 use super::adaptive::{Adaptive, PixelNoise};
 use crate::accel::Hit;
 use crate::bsdf::{BsdfEval, PassClass};
+use crate::camera::Camera;
 use crate::math::Vec3;
 use crate::output::cryptomatte;
 use crate::output::film::Film;
@@ -142,9 +144,10 @@ impl PixelAccumulator {
         }
     }
 
-    /// The colour pass of family `class`: the mean over the hit samples (0 where none hit).
+    /// The colour pass of family `class`: the mean over all the pixel's samples, a miss
+    /// counting 0 (coverage-weighted, as Cycles writes DiffCol).
     fn colour(&self, class: PassClass) -> Vec3 {
-        if self.hits == 0 { Vec3::ZERO } else { self.colors.get(class) / self.hits as f32 }
+        self.colors.get(class) / self.noise.samples() as f32
     }
 
     /// A light pass: the mean of its term over the pixel's `spp` samples, divided by its family's
@@ -168,9 +171,9 @@ impl PixelAccumulator {
         rule.converged(self.radiance, &self.noise)
     }
 
-    /// Box filter: the mean over the pixel's samples for RGB and alpha, over the hit samples for
-    /// normal and albedo; the nearest hit for depth (see [`crate::output::film`]).
-    pub fn write(&self, film: &mut Film, x: u32, y: u32, scene: &Scene, ids: &ObjectIds) {
+    /// Box filter: the mean over the pixel's samples for RGB, alpha, normal and albedo; the
+    /// nearest hit for depth, its view-axis depth through `camera` (see [`crate::output::film`]).
+    pub fn write(&self, film: &mut Film, x: u32, y: u32, scene: &Scene, camera: &Camera, ids: &ObjectIds) {
         // `image.spp`, or fewer where adaptive sampling stopped the pixel.
         let spp = self.noise.samples();
         let i = film.index(x, y);
@@ -179,11 +182,10 @@ impl PixelAccumulator {
         film.rgba[i] = [rgb.x, rgb.y, rgb.z, alpha];
         if let Some(first) = self.nearest {
             if let Some(depth) = film.depth.get_mut(i) {
-                *depth = first.t;
+                *depth = camera.depth_of(first.p);
             }
             if let Some(normal) = film.normal.get_mut(i) {
-                // One unit normal needs no renormalising (which could move it by an ulp).
-                *normal = if self.hits == 1 { self.normal } else { self.normal.normalize_or_zero() };
+                *normal = self.normal / spp as f32;
             }
             if let Some(albedo) = film.albedo.get_mut(i) {
                 *albedo = self.colour(PassClass::Diffuse);
@@ -195,6 +197,7 @@ impl PixelAccumulator {
                 pass if pass.is_light() => out.copy_from_slice(&self.light(pass, spp).to_array()),
                 Pass::GlossyColor => out.copy_from_slice(&self.colour(PassClass::Glossy).to_array()),
                 Pass::TransmissionColor => out.copy_from_slice(&self.colour(PassClass::Transmission).to_array()),
+                Pass::Distance => out[0] = self.nearest.map_or(f32::INFINITY, |f| f.t),
                 Pass::Position => {
                     out.copy_from_slice(&self.nearest.map_or(Vec3::ZERO, |f| f.p).to_array());
                 }

@@ -85,6 +85,10 @@ pub struct Output {
     pub checkpoint_every: f64,
     /// Continue from the checkpoint when it exists.
     pub resume: bool,
+    /// The frame number and frames per second the header names (`Frame`, `Time`;
+    /// [`crate::output::metadata`]); no pixel depends on them.
+    pub frame: u32,
+    pub fps: u32,
 }
 
 impl Output {
@@ -391,8 +395,13 @@ impl RenderJob {
             scene_file: self.path.display().to_string(),
             backend: self.backend.name().to_string(),
             render_seconds: 0.0,
+            frame: output.frame,
+            fps: output.fps,
         };
         let mut attributes = crate::output::metadata::attributes(&self.scene, &info);
+        if output.layout == Layout::Blender {
+            attributes.push(("BlenderMultiChannel".to_string(), Attribute::Text("Blender V2.55.1 and newer".into())));
+        }
         attributes.push((RENDER_KEY.to_string(), Attribute::Text(self.render_key(output))));
         ExrOptions {
             layout: output.layout,

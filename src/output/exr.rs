@@ -10,19 +10,23 @@
 //! | depth | `ViewLayer.Depth.Z` | `Z` (Nuke's `depth.Z`) |
 //! | normal | `ViewLayer.Normal.X/Y/Z` | `N.X/Y/Z` |
 //! | albedo | `ViewLayer.DiffCol.R/G/B` | `albedo.R/G/B` |
-//! | emission, diffuse, specular | `ViewLayer.Emit`, `.DiffDir`, `.GlossDir` `.R/G/B` | `emission`, `diffuse`, `specular` `.R/G/B` |
-//! | reflection, transmission, background | `ViewLayer.GlossInd`, `.TransInd`, `.Env` `.R/G/B` | `reflection`, `transmission`, `background` `.R/G/B` |
+//! | emission, background | `ViewLayer.Emit`, `ViewLayer.Env` `.R/G/B` | `emission`, `background` `.R/G/B` |
+//! | diffuse_direct, diffuse_indirect | `ViewLayer.DiffDir`, `.DiffInd` `.R/G/B` | `diffuse_direct`, `diffuse_indirect` `.R/G/B` |
+//! | glossy_direct, glossy_indirect, glossy_color | `ViewLayer.GlossDir`, `.GlossInd`, `.GlossCol` `.R/G/B` | `glossy_direct`, `glossy_indirect`, `glossy_color` `.R/G/B` |
+//! | transmission_direct, _indirect, _color | `ViewLayer.TransDir`, `.TransInd`, `.TransCol` `.R/G/B` | `transmission_direct`, `transmission_indirect`, `transmission_color` `.R/G/B` |
 //! | position | `ViewLayer.Position.X/Y/Z` | `P.X/Y/Z` |
+//! | distance | `ViewLayer.Distance.Z` | `distance.Z` |
 //! | object_index, material_index | `ViewLayer.IndexOB.X`, `ViewLayer.IndexMA.X` | `object_index.X`, `material_index.X` |
 //! | crypto_object | `ViewLayer.CryptoObject00.r/g/b/a`, `01`, … | `CryptoObject00.R/G/B/A`, … |
 //! | crypto_material | `ViewLayer.CryptoMaterial00.r/g/b/a`, … | `CryptoMaterial00.R/G/B/A`, … |
+//! | disagreement | `ViewLayer.Disagreement.X` | `disagreement.X` |
 //! | sample_count, variance | `ViewLayer.Debug Sample Count.X`, `ViewLayer.Variance.R/G/B` | `sample_count.X`, `variance.R/G/B` |
 //!
 //! The Cryptomatte passes are named `ViewLayer.CryptoObject` / `CryptoObject` (and material)
 //! in their `cryptomatte/<key>/name` attributes ([`crate::output::cryptomatte`]).
 //!
 //! **Sample types.** float32; with `half`, the colour passes (combined, albedo, the light
-//! passes) and the normals are half floats, while depth, position, the indices and
+//! passes) and the normals are half floats, while depth, distance, position, the indices and
 //! Cryptomatte stay float32: Cryptomatte ids are float bit patterns and must not be rounded,
 //! and depth and position are absolute coordinates (half keeps 11 bits, a 2 mm step at 4 m).
 //! Normals are unit vectors, which half stores to 5·10⁻⁴, well below what relighting or a
@@ -42,9 +46,8 @@
 //! stored uncompressed, with a warning): what the `exr` crate writes (it cannot write
 //! DWAA/DWAB).
 //!
-//! `Z` is `+inf` (not 0 or a large finite number) for rays that escape: that is the true
-//! distance to the first hit, it sorts behind every surface in depth compositing, and it
-//! cannot be mistaken for a real distance.
+//! `Z` (and `distance`) is `+inf` (not 0, nor Blender's 10¹⁰) for rays that escape: it sorts
+//! behind every surface in depth compositing, and it cannot be mistaken for a real distance.
 //!
 //! **Text.** OpenEXR stores a `string` attribute as a length and bytes, with no encoding of
 //! its own (OpenEXRFileLayout: "a sequence of chars"); the `exr` crate's `Text` constructors
@@ -133,7 +136,7 @@ impl Compression {
     /// part alike, and `pxr24` rounds float32 to 24 bits: Cryptomatte ids are float bit
     /// patterns (and object or material indices above 2¹⁵ would round), so a file with them is
     /// written with ZIP instead (lossless, what Blender's mattes need). `b44`/`b44a` compress
-    /// only half channels: the float32 ones (depth, position, indices, Cryptomatte, every
+    /// only half channels: the float32 ones (depth, distance, position, indices, Cryptomatte, every
     /// channel without `--half`) are stored uncompressed, which the warning says.
     pub fn for_output(self, output: &OutputSpec, half: bool) -> (Compression, Option<String>) {
         let exact =
@@ -142,7 +145,7 @@ impl Compression {
             (Compression::Pxr24, Some(pass)) => (
                 Compression::Zip,
                 Some(format!(
-                    "warning: --compression pxr24 rounds float32 channels to 24 bits, which would destroy the {pass}                      pass's ids: writing ZIP (lossless) instead"
+                    "warning: --compression pxr24 rounds float32 channels to 24 bits, which would destroy the {pass} pass's ids: writing ZIP (lossless) instead"
                 )),
             ),
             (Compression::B44 | Compression::B44a, _) => {
@@ -228,6 +231,7 @@ pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
         Pass::TransmissionColor => ("TransCol", "transmission_color", &RGBA),
         Pass::Background => ("Env", "background", &RGBA),
         Pass::Position => ("Position", "P", &XYZ),
+        Pass::Distance => ("Distance", "distance", &["Z"]),
         Pass::ObjectIndex => ("IndexOB", "object_index", &["X"]),
         Pass::MaterialIndex => ("IndexMA", "material_index", &["X"]),
         Pass::Disagreement => ("Disagreement", "disagreement", &["X"]),

@@ -13,9 +13,9 @@
 //! |---|---|---|
 //! | RGB | mean radiance over all `spp` samples (box filter), linear, in the scene's units; a sample that hits nothing contributes the background radiance | the background |
 //! | A | 1 (an opaque frame); with `transparent`, `k / spp`, the fraction of samples whose primary ray hit geometry (coverage) | 1; with `transparent`, 0 |
-//! | depth | the smallest `t` among the hit samples: the distance from the eye to the nearest first hit along its primary ray (unit directions, so `t` is a distance; not the z-depth along the view axis) | `+∞` |
-//! | normal | the world-space unit shading normal at the first hit, facing the eye, averaged over the hit samples and renormalised (zero if they cancel) | zero |
-//! | albedo | the diffuse albedo ρ at the first hit (texture × vertex colour; 0 for pure mirrors and glass), averaged over the hit samples | zero |
+//! | depth | the view-axis depth of the nearest first hit (the hit sample with the smallest `t`): `−w·(p − e)`, its `z` in camera space, as Blender's and Nuke's Z (the ray's length is the `distance` pass) | `+∞` |
+//! | normal | the world-space unit shading normal at the first hit, facing the eye, summed over the hit samples and divided by `spp` (coverage-weighted, as Cycles' Normal pass) | zero |
+//! | albedo | the diffuse albedo ρ at the first hit (texture × vertex colour; 0 for pure mirrors and glass), summed over the hit samples and divided by `spp` (coverage-weighted, as Cycles' DiffCol) | zero |
 //!
 //! **Alpha.** RGBA is premultiplied, so `over` composites it correctly either way:
 //! - by default the frame is opaque: A = 1 everywhere, the background radiance `b` in RGB
@@ -27,8 +27,9 @@
 //!   mirror shows black where it would reflect the background.
 //!
 //! Depth is a minimum, not a mean, so it is never a
-//! distance between two objects at an edge; normal and albedo are means over the hit samples
-//! only, so edges against the background are not darkened.
+//! distance between two objects at an edge (Cycles writes its first sample's instead); normal
+//! and albedo fade with the coverage at edges against the background, as in Cycles, so that a
+//! denoiser sees the same edge in them as in the beauty.
 
 use crate::math::Vec3;
 use crate::output::passes::{OutputSpec, Pass};
@@ -113,7 +114,8 @@ impl Film {
             .filter(|p| !matches!(p, Pass::Combined | Pass::Depth | Pass::Normal | Pass::Albedo))
             .map(|pass| {
                 let floats_per_pixel = pass.floats_per_pixel(output.crypto_levels);
-                Aov { pass, floats_per_pixel, data: vec![0.0; n * floats_per_pixel] }
+                let empty = if pass == Pass::Distance { f32::INFINITY } else { 0.0 };
+                Aov { pass, floats_per_pixel, data: vec![empty; n * floats_per_pixel] }
             })
             .collect();
         Film {

@@ -16,6 +16,13 @@
 //! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
 //! | `strahl/transparent` | int | 1 for a transparent render (alpha = coverage), else 0 |
 //! | `strahl/renderKey` | string | what the file is the render of ([`RENDER_KEY`]) |
+//! | `Scene`, `File` | string | the scene file's name without its extension, and with it (Blender: the scene's name and the `.blend` file) |
+//! | `Camera` | string | the camera's name, when the scene file gives one (a glTF camera's node name) |
+//! | `Frame` | string | the frame number (`--frame`, default 1), at least 3 digits: `001` |
+//! | `Time` | string | that frame's SMPTE timecode `hh:mm:ss:ff` at `--fps` (default 24): frame 1 is `00:00:00:01`, as Blender writes it |
+//! | `cycles.ViewLayer.samples` | string | samples per pixel, under the key Blender's image editor and Cycles' files show it |
+//! | `cycles.ViewLayer.render_time` | string | the render time, as `RenderTime` |
+//! | `BlenderMultiChannel` | string | `Blender V2.55.1 and newer`, in the `blender` layout only: the key Blender writes into its multilayer files |
 //! | `worldToCamera` | m44f | world → camera space (below) |
 //! | `worldToNDC` | m44f | world → normalised device coordinates (below) |
 //!
@@ -43,7 +50,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use glam::DVec3;
 
-use super::exr::Attribute;
+use super::exr::{Attribute, VIEW_LAYER};
 use crate::camera::Camera;
 use crate::scene::Scene;
 
@@ -85,6 +92,9 @@ pub struct RenderInfo {
     pub backend: String,
     /// Wall time of rendering.
     pub render_seconds: f64,
+    /// The frame number and frames per second (`Frame`, `Time`).
+    pub frame: u32,
+    pub fps: u32,
 }
 
 /// The attributes of the module docs for `scene`, rendered as `info` says. A render makes
@@ -102,7 +112,15 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         ("strahl/scene".into(), text(&scene_entry(&info.scene_file))),
         ("strahl/sceneHash".into(), text(&crate::scene::hash::scene_hash_hex(scene))),
         ("strahl/transparent".into(), Attribute::Int(scene.output.transparent as i32)),
+        ("Scene".into(), text(&scene_stem(&info.scene_file))),
+        ("File".into(), text(&scene_entry(&info.scene_file))),
+        ("Frame".into(), text(&format!("{:03}", info.frame))),
+        ("Time".into(), text(&timecode(info.frame, info.fps))),
+        (format!("cycles.{VIEW_LAYER}.samples"), text(&scene.image.spp.to_string())),
     ];
+    if let Some(name) = &scene.names.camera {
+        out.push(("Camera".into(), text(name)));
+    }
     if let Ok(camera) = Camera::new(&scene.camera, scene.image.width, scene.image.height) {
         let (to_camera, to_ndc) = camera_matrices(&camera);
         out.push(("worldToCamera".into(), Attribute::Matrix(to_camera)));
@@ -126,6 +144,7 @@ pub fn finish(attributes: &mut Vec<(String, Attribute)>, render_seconds: f64) {
     if fixed_date.is_none() {
         run.push(("renderTimeSeconds".into(), Attribute::Float(render_seconds as f32)));
         run.push(("RenderTime".into(), text(&render_time_text(render_seconds))));
+        run.push((format!("cycles.{VIEW_LAYER}.render_time"), text(&render_time_text(render_seconds))));
     }
     for (name, value) in run {
         match attributes.iter_mut().find(|(n, _)| *n == name) {
@@ -141,6 +160,19 @@ pub fn finish(attributes: &mut Vec<(String, Attribute)>, render_seconds: f64) {
 /// same bytes; `strahl/sceneHash` identifies what the scene holds.
 pub fn scene_entry(path: &str) -> String {
     std::path::Path::new(path).file_name().map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// The scene file's name without its folder and extension (the header's `Scene`).
+pub fn scene_stem(path: &str) -> String {
+    std::path::Path::new(path).file_stem().map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Frame `frame` at `fps` frames per second as an SMPTE timecode `hh:mm:ss:ff`, as Blender
+/// writes `Time` (frame `f` lies at `f / fps` seconds: frame 1 is `00:00:00:01`).
+pub fn timecode(frame: u32, fps: u32) -> String {
+    let fps = fps.max(1);
+    let seconds = frame / fps;
+    format!("{:02}:{:02}:{:02}:{:02}", seconds / 3600, seconds / 60 % 60, seconds % 60, frame % fps)
 }
 
 /// `seconds` as Blender writes `RenderTime`: `MM:SS.ss`.
@@ -212,6 +244,13 @@ mod tests {
     use crate::math::Vec2;
     use crate::math::Vec3;
     use crate::scene::CameraSpec;
+
+    #[test]
+    fn timecodes_as_blender_writes_them() {
+        assert_eq!(timecode(1, 24), "00:00:00:01"); // the Cycles reference file's frame 1
+        assert_eq!(timecode(24, 24), "00:00:01:00");
+        assert_eq!(timecode(25 * 3661 + 7, 25), "01:01:01:07");
+    }
 
     #[test]
     fn civil_dates() {

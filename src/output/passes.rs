@@ -19,9 +19,9 @@
 //! | pass (`--passes` name) | Blender layer | meaning | unit |
 //! |---|---|---|---|
 //! | `combined` | `Combined` (RGBA) | the beauty; A is the alpha of [`crate::output::film`] | W/(m²·sr) |
-//! | `depth` | `Depth` (Z) | distance from the eye to the nearest first hit, `+inf` on a miss | scene units |
-//! | `normal` | `Normal` (XYZ) | world-space shading normal at the first hit | unit vector |
-//! | `albedo` | `DiffCol` (RGB) | the colour of the first hit's diffuse lobes (ρ of a Lambert surface) | 1 |
+//! | `depth` | `Depth` (Z) | depth of the nearest first hit along the camera's view axis (Blender's and Nuke's Z), `+inf` on a miss | scene units |
+//! | `normal` | `Normal` (XYZ) | world-space shading normal at the first hit, coverage-weighted | ≤ 1 |
+//! | `albedo` | `DiffCol` (RGB) | the colour of the first hit's diffuse lobes (ρ of a Lambert surface), coverage-weighted | 1 |
 //! | `emission` | `Emit` | emission `L_e` of the first hit | W/(m²·sr) |
 //! | `diffuse_direct` | `DiffDir` | light from lights and emitters scattered once, by the first hit's diffuse lobes, ÷ DiffCol | W/(m²·sr) |
 //! | `diffuse_indirect` | `DiffInd` | light scattered more than once, first by the first hit's diffuse lobes, ÷ DiffCol | W/(m²·sr) |
@@ -33,6 +33,7 @@
 //! | `transmission_color` | `TransCol` (RGB) | the colour of the first hit's transmission | 1 |
 //! | `background` | `Env` | the environment (background) radiance of camera rays that hit nothing | W/(m²·sr) |
 //! | `position` | `Position` (XYZ) | world position of the nearest first hit, 0 on a miss | scene units |
+//! | `distance` | `Distance` (Z) | length of the primary ray from its origin to the nearest first hit, `+inf` on a miss | scene units |
 //! | `object_index` | `IndexOB` (X) | 1 + the object's index in the object list (0 on a miss) | 1 |
 //! | `material_index` | `IndexMA` (X) | 1 + the material's index in the scene (0 on a miss) | 1 |
 //! | `crypto_object` | `CryptoObject00..` | Cryptomatte ranks of the objects ([`crate::output::cryptomatte`]) | id, coverage |
@@ -44,10 +45,11 @@
 //! `--passes diffuse`, `glossy` and `transmission` name a family's three passes at once, and
 //! `light` every light-path pass with the colours.
 //!
-//! Emit, Env and the direct and indirect light (before the division) are means over all of
-//! the pixel's samples, like the beauty; depth, position and the indices belong to the nearest
-//! hit sample; normal and the colours are means over the hit samples (so the division undoes
-//! the colour exactly). What is seen through a mirror (background included) is glossy light,
+//! Emit, Env and the direct and indirect light (before the division), the normal and the colours
+//! are means over all of the pixel's samples, like the beauty, a sample that hits nothing
+//! counting 0 (coverage-weighted, as Cycles accumulates them: at an edge against the background
+//! DiffCol and Normal fade with the coverage, and the division still undoes the colour
+//! exactly); depth, distance, position and the indices belong to the nearest hit sample. What is seen through a mirror (background included) is glossy light,
 //! not background: `Env` holds only what camera rays see directly.
 //!
 //! `disagreement` traces every camera ray through both backends (the render's own and the
@@ -76,6 +78,7 @@ pub enum Pass {
     TransmissionColor,
     Background,
     Position,
+    Distance,
     ObjectIndex,
     MaterialIndex,
     CryptoObject,
@@ -107,7 +110,7 @@ pub const FAMILIES: [(Pass, Pass, Pass); 3] = [
 
 impl Pass {
     /// Every pass, in the order of the module docs (and of the channels in the film).
-    pub const ALL: [Pass; 22] = [
+    pub const ALL: [Pass; 23] = [
         Pass::Combined,
         Pass::Depth,
         Pass::Normal,
@@ -123,6 +126,7 @@ impl Pass {
         Pass::TransmissionColor,
         Pass::Background,
         Pass::Position,
+        Pass::Distance,
         Pass::ObjectIndex,
         Pass::MaterialIndex,
         Pass::CryptoObject,
@@ -150,6 +154,7 @@ impl Pass {
             Pass::TransmissionColor => "transmission_color",
             Pass::Background => "background",
             Pass::Position => "position",
+            Pass::Distance => "distance",
             Pass::ObjectIndex => "object_index",
             Pass::MaterialIndex => "material_index",
             Pass::CryptoObject => "crypto_object",
@@ -191,7 +196,12 @@ impl Pass {
     pub fn floats_per_pixel(self, crypto_levels: u32) -> usize {
         match self {
             Pass::Combined => 4,
-            Pass::Depth | Pass::ObjectIndex | Pass::MaterialIndex | Pass::Disagreement | Pass::SampleCount => 1,
+            Pass::Depth
+            | Pass::Distance
+            | Pass::ObjectIndex
+            | Pass::MaterialIndex
+            | Pass::Disagreement
+            | Pass::SampleCount => 1,
             Pass::CryptoObject | Pass::CryptoMaterial => 4 * crypto_levels.div_ceil(2) as usize,
             _ => 3,
         }

@@ -263,6 +263,9 @@ pub struct ObjectNames {
     pub meshes: Vec<String>,
     pub spheres: Vec<String>,
     pub planes: Vec<String>,
+    /// The camera's name, when the scene file gives it one (a glTF camera's node name, else the
+    /// camera's own name): the EXR header's `Camera`, as Blender writes its camera object's name.
+    pub camera: Option<String>,
 }
 
 impl Scene {

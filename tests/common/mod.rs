@@ -56,6 +56,46 @@ pub fn lecture_ray(cam: &CameraSpec, width: u32, height: u32, x: u32, y: u32) ->
     (e, (su * u + sv * v - w).normalize())
 }
 
+/// The view-axis depth (Blender's Depth, the film's `depth`) of the point at parameter `t` of the
+/// ray from the eye along `dir` (any length) of the camera `cam`: `t·(dir·f)`, with `f` the unit
+/// view direction.
+pub fn axis_depth(cam: &CameraSpec, dir: DVec3, t: f64) -> f64 {
+    t * dir.dot((cam.target.as_dvec3() - cam.eye.as_dvec3()).normalize())
+}
+
+/// The Cryptomatte matte of object `name` in the EXR at `path` (its `channels`, read by
+/// [`read_exr`]), as a compositor's pick computes it: the name's id from the file's own
+/// `ViewLayer.CryptoObject` manifest, and at each pixel the summed coverage of the ranks
+/// holding that id, over every `CryptoObjectNN` layer. `None` when the manifest lacks the name.
+pub fn crypto_matte(path: &Path, channels: &[(String, Vec<f32>)], name: &str) -> Option<Vec<f32>> {
+    use exr::meta::attribute::{AttributeValue, Text};
+    let image = read_exr_image(path);
+    let attrs = &image.layer_data[0].attributes.other;
+    let text = |v: &AttributeValue| match v {
+        AttributeValue::Text(t) => t.to_string(),
+        other => panic!("{other:?} is not text"),
+    };
+    let key = attrs
+        .iter()
+        .find(|(k, v)| k.to_string().ends_with("/name") && text(v) == "ViewLayer.CryptoObject")
+        .map(|(k, _)| k.to_string().replace("/name", "/manifest"))
+        .expect("a CryptoObject manifest");
+    let manifest: std::collections::HashMap<String, String> =
+        serde_json::from_str(&text(&attrs[&Text::from(key.as_str())])).unwrap();
+    let id = u32::from_str_radix(manifest.get(name)?, 16).unwrap();
+    let pixels = channels[0].1.len();
+    let mut matte = vec![0.0f32; pixels];
+    for layer in (0..).map(|k| format!("ViewLayer.CryptoObject{k:02}")) {
+        let Some((_, r)) = channels.iter().find(|(n, _)| *n == format!("{layer}.r")) else { break };
+        let c = |s: &str| channel(channels, &format!("{layer}.{s}"));
+        let (g, b, a) = (c("g"), c("b"), c("a"));
+        for i in 0..pixels {
+            matte[i] += if r[i].to_bits() == id { g[i] } else { 0.0 } + if b[i].to_bits() == id { a[i] } else { 0.0 };
+        }
+    }
+    Some(matte)
+}
+
 /// Films compared bit for bit (so `-0.0 ≠ 0.0` and NaNs compare too).
 pub fn same_bits(a: &Film, b: &Film) -> bool {
     let bits3 = |v: &[glam::Vec3]| v.iter().flat_map(|x| x.to_array()).map(f32::to_bits).collect::<Vec<_>>();

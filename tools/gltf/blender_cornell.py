@@ -2,7 +2,7 @@
 it with Cycles, for the path tracer's comparison with Cycles (tests/cycles.rs,
 `make test-cycles`).
 
-    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque]
+    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque] [passes] [centre]
 
 writes OUT_DIR/cornell.gltf (+ .bin) and OUT_DIR/cycles.exr (SIZE x SIZE pixels, SPP samples, scene-linear
 RGBA floats; SPP 0 exports without rendering). `opaque` makes the glass sphere white diffuse, lifts
@@ -38,7 +38,13 @@ import bpy
 args = sys.argv[sys.argv.index("--") + 1 :]
 out_dir, size, spp, depth = args[:4]
 size, spp, depth = int(size), int(spp), int(depth)
-opaque = args[4:] == ["opaque"]
+flags = set(args[4:])
+opaque = "opaque" in flags
+# `passes`: a multilayer EXR with Cycles' Depth and CryptoObject passes (6 levels), for the
+# comparison of strahl's Depth and Cryptomatte with Cycles' (tests/cycles.rs); `centre`: every
+# sample at the pixel centre (a box filter 0.01 pixel wide, Cycles' narrowest).
+passes = "passes" in flags
+centre = "centre" in flags
 os.makedirs(out_dir, exist_ok=True)
 
 for obj in list(bpy.data.objects):
@@ -211,7 +217,14 @@ scene.view_settings.view_transform = "Standard"
 scene.view_settings.look = "None"
 scene.view_settings.exposure = 0.0
 scene.view_settings.gamma = 1.0
-scene.render.image_settings.file_format = "OPEN_EXR"
+scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER" if passes else "OPEN_EXR"
+if centre:
+    cycles.filter_width = 0.01
+if passes:
+    layer = scene.view_layers[0]
+    layer.use_pass_z = True
+    layer.use_pass_cryptomatte_object = True
+    layer.pass_cryptomatte_depth = 6
 scene.render.image_settings.color_depth = "32"
 scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = os.path.join(out_dir, "cycles.exr")

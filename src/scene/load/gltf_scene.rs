@@ -169,6 +169,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
     match chosen {
         Some(c) => {
             scene.camera = c.spec;
+            scene.names.camera = c.node_name.clone().or_else(|| c.name.clone());
             if let Some(aspect) = c.aspect_ratio.filter(|a| a.is_finite() && *a > 0.0) {
                 scene.image.height = ((scene.image.width as f32 / aspect).round() as u32).max(1);
             }
