@@ -2,7 +2,8 @@
 PyPI's mmh3 hashes the names, and the Cryptomatte 1.1 float conversion is applied here. For every
 object in the manifest, the matte (the coverage summed over the ranks whose id is the object's)
 must equal the object-index pass's coverage (IndexOB = 1 + the object's place in the manifest)
-on at least 99.9 % of pixels (the file is rendered at 1 spp, so the index pass is exact).
+on at least 99.9 % of pixels (the file is rendered at 1 spp, so the index pass is exact); and no
+rank holds an id that is not in the manifest ("unknown ids: 0").
 Usage: python3 cryptomatte_check.py FILE.exr"""
 
 import json
@@ -59,6 +60,19 @@ def main(path):
         print(f"object '{name}': id {hex_id}, {pixels} pixels, matte agrees on {100 * agree:.3f} % of pixels")
         if agree < 0.999 or pixels == 0:
             failures += 1
+    # Every id stored with a nonzero coverage is a name's: lossy compression would make others.
+    known = {np.uint32(int(h, 16)) for h in manifest.values()}
+    unknown = 0
+    for layer in ranks:
+        c = [channels[layer + "." + x] for x in ("r", "g", "b", "a")] if layer + ".r" in channels else [
+            channels[layer + "." + x] for x in ("R", "G", "B", "A")
+        ]
+        for id_channel, coverage in ((c[0], c[1]), (c[2], c[3])):
+            ids = id_channel.view(np.uint32)[coverage != 0]
+            unknown += int(sum(1 for i in ids if i not in known))
+    print(f"unknown ids: {unknown}")
+    if unknown:
+        failures += 1
     materials = next((l for l in layers.values() if l["name"].endswith("CryptoMaterial")), None)
     if materials:
         for name, hex_id in json.loads(materials["manifest"]).items():
