@@ -23,9 +23,10 @@ pub enum Texture {
     /// A world-space 3-D checkerboard of cubes of edge `size`: `even` where
     /// `⌊x/size⌋ + ⌊y/size⌋ + ⌊z/size⌋` is even, `odd` elsewhere.
     Checker { even: Vec3, odd: Vec3, size: f32 },
-    /// An image looked up at the surface's texture coordinates (glTF `baseColorTexture`, OBJ
-    /// `map_Kd`); surfaces without texture coordinates look it up at `(0, 0)`.
-    Image(ImageTexture),
+    /// An image looked up at the surface's texture coordinates (glTF `baseColorTexture` with its
+    /// coordinate set and transform, OBJ `map_Kd`); surfaces without texture coordinates look
+    /// it up at `(0, 0)`.
+    Image(TextureSlot),
 }
 
 /// How far (in units of the checker `size`) a texture lookup moves a point against the
@@ -42,7 +43,7 @@ impl Texture {
     /// its hit points. The lookup therefore moves `p` by `10⁻⁴·size` into the object (against
     /// the outward normal), which decides such ties the same way everywhere and moves the
     /// checker's edges by a negligible amount elsewhere.
-    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3, uv: Vec2) -> Vec3 {
+    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3, uv: [Vec2; 2]) -> Vec3 {
         match self {
             Texture::Constant(c) => *c,
             &Texture::Checker { even, odd, size } => {
@@ -50,7 +51,7 @@ impl Texture {
                 let cell = q.x.floor() as i64 + q.y.floor() as i64 + q.z.floor() as i64;
                 if cell.rem_euclid(2) == 0 { even } else { odd }
             }
-            Texture::Image(t) => t.lookup(uv),
+            Texture::Image(t) => t.at(uv),
         }
     }
 
@@ -58,7 +59,7 @@ impl Texture {
     pub fn problem(&self) -> Option<String> {
         match *self {
             Texture::Constant(c) => bad_colour("diffuse", c),
-            Texture::Image(ref t) => bad_colour("texture factor", t.factor),
+            Texture::Image(ref t) => bad_colour("texture factor", t.texture.factor),
             Texture::Checker { even, odd, size } => bad_colour("checker even", even)
                 .or_else(|| bad_colour("checker odd", odd))
                 .or_else(|| (!(size > 0.0 && size.is_finite())).then(|| format!("checker size {size} must be > 0"))),
@@ -156,7 +157,7 @@ impl Material {
     pub fn images(&self) -> Vec<&std::sync::Arc<crate::texture::Image>> {
         let mut images = Vec::new();
         if let Texture::Image(t) = &self.diffuse {
-            images.push(&t.image);
+            images.push(&t.texture.image);
         }
         if let Some(p) = &self.pbr {
             for slot in p.slots().into_iter().flatten() {
@@ -172,8 +173,8 @@ impl Material {
         let bare =
             |t: &ImageTexture| ImageTexture { image: std::sync::Arc::new(t.image.without_texels()), ..t.clone() };
         let mut m = self.clone();
-        if let Texture::Image(t) = &m.diffuse {
-            m.diffuse = Texture::Image(bare(t));
+        if let Texture::Image(t) = &mut m.diffuse {
+            t.texture = bare(&t.texture);
         }
         if let Some(p) = &mut m.pbr {
             for slot in p.slots_mut().into_iter().flatten() {
@@ -371,7 +372,10 @@ impl Pbr {
         let roughness = self.factors.roughness * mr.y;
         let base = (self.factors.base_color * TextureSlot::mean(&self.base_color_texture)).clamp(Vec3::ZERO, Vec3::ONE);
         let diffuse = |k: f32| match &self.base_color_texture {
-            Some(t) => Texture::Image(ImageTexture { factor: self.factors.base_color * k, ..t.texture.clone() }),
+            Some(t) => Texture::Image(TextureSlot {
+                texture: ImageTexture { factor: self.factors.base_color * k, ..t.texture.clone() },
+                ..t.clone()
+            }),
             None => Texture::Constant(self.factors.base_color * k),
         };
         let emission = self.emission * TextureSlot::mean(&self.emissive_texture);
@@ -439,18 +443,18 @@ mod tests {
     #[test]
     fn checker_cells_alternate() {
         let up = Vec3::Y;
-        assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, 0.5, 0.5), up, Vec2::ZERO), Vec3::ONE);
-        assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, 0.5, 0.5), up, Vec2::ZERO), Vec3::ZERO);
-        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, 0.5, 0.5), up, Vec2::ZERO), Vec3::ZERO);
-        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, -0.5, 0.5), up, Vec2::ZERO), Vec3::ONE);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, 0.5, 0.5), up, [Vec2::ZERO; 2]), Vec3::ONE);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, 0.5, 0.5), up, [Vec2::ZERO; 2]), Vec3::ZERO);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, 0.5, 0.5), up, [Vec2::ZERO; 2]), Vec3::ZERO);
+        assert_eq!(CHECKER.albedo_at(Vec3::new(-0.5, -0.5, 0.5), up, [Vec2::ZERO; 2]), Vec3::ONE);
     }
 
     #[test]
     fn a_floor_on_a_cell_boundary_is_one_cell_thick() {
         // Points on y = 0, a hair above and below it: all take the cell below (y ∈ [−1, 0)).
         for y in [0.0f32, 1e-7, -1e-7] {
-            assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, y, 0.5), Vec3::Y, Vec2::ZERO), Vec3::ZERO, "y = {y}");
-            assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, y, 0.5), Vec3::Y, Vec2::ZERO), Vec3::ONE, "y = {y}");
+            assert_eq!(CHECKER.albedo_at(Vec3::new(0.5, y, 0.5), Vec3::Y, [Vec2::ZERO; 2]), Vec3::ZERO, "y = {y}");
+            assert_eq!(CHECKER.albedo_at(Vec3::new(1.5, y, 0.5), Vec3::Y, [Vec2::ZERO; 2]), Vec3::ONE, "y = {y}");
         }
     }
 

@@ -102,13 +102,13 @@ impl SurfacePoint {
             GeomKind::Spheres => {
                 let s = &scene.spheres[prim];
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
-                (s.center + s.radius * n, n, n, Vec3::ONE, Vec2::ZERO, s.material, hit.t)
+                (s.center + s.radius * n, n, n, Vec3::ONE, [Vec2::ZERO; 2], s.material, hit.t)
             }
             GeomKind::Planes => {
                 let pl = &scene.planes[prim];
                 let x = ray.at(hit.t);
                 let p = x - (pl.normal.dot(x) - pl.dist) * pl.normal;
-                (p, pl.normal, pl.normal, Vec3::ONE, Vec2::ZERO, pl.material, hit.t)
+                (p, pl.normal, pl.normal, Vec3::ONE, [Vec2::ZERO; 2], pl.material, hit.t)
             }
         };
         // A degenerate triangle (zero area) has no normal of its own: face the ray.
@@ -119,7 +119,7 @@ impl SurfacePoint {
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
         let ns = if ns.dot(ray.dir) >= 0.0 { ng } else { ns };
         let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv: [uv, uv], color: colour, t }
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv, color: colour, t }
     }
 }
 
@@ -136,13 +136,15 @@ fn on_triangle(
     corners: [Vec3; 3],
     normals: Option<[Vec3; 3]>,
     swapped: bool,
-) -> (Vec3, Vec3, Vec3, Vec3, Vec2, f32) {
+) -> (Vec3, Vec3, Vec3, Vec3, [Vec2; 2], f32) {
     let (u, v) = if swapped { (hit.v, hit.u) } else { (hit.u, hit.v) };
     let h = triangle::resolve_f64(ray.org, ray.dir, corners).unwrap_or(triangle::TriangleHit { t: hit.t, u, v });
     let p = barycentric(corners, h.u, h.v);
     let ng = triangle::normal(corners[0], corners[1], corners[2]).normalize_or_zero();
     let ns = normals.map_or(Vec3::ZERO, |n| barycentric(n, h.u, h.v));
     let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), h.u, h.v));
-    let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |t| barycentric2(idx.map(|i| t[i]), h.u, h.v));
-    (p, ng, ns.normalize_or_zero(), colour, uv, h.t)
+    let uv = |set: &Option<Vec<Vec2>>| set.as_ref().map(|t| barycentric2(idx.map(|i| t[i]), h.u, h.v));
+    let uv0 = uv(&mesh.uvs).unwrap_or(Vec2::ZERO);
+    // A mesh without a second set reads its first for `TEXCOORD_1`.
+    (p, ng, ns.normalize_or_zero(), colour, [uv0, uv(&mesh.uvs1).unwrap_or(uv0)], h.t)
 }

@@ -11,7 +11,7 @@ use strahl::texture::srgb_to_linear;
 
 /// A glTF document under construction: one binary buffer, its views and accessors, and the
 /// JSON of the other top-level arrays.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Gltf {
     bin: Vec<u8>,
     views: Vec<String>,
@@ -405,6 +405,44 @@ fn a_checker_texture_gives_the_analytic_texel_colours() {
         for (c, name) in ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B"].iter().enumerate() {
             let got = channel(&ch, name)[i];
             assert!((got - want[c]).abs() <= 1e-6, "{name} of cell {cell}: {got} vs {}", want[c]);
+        }
+    }
+}
+
+/// A base-colour texture with `texCoord` 1 reads `TEXCOORD_1`: the quad's first set points every
+/// vertex at one cell, its second spans the texture, so each cell shows only through the second.
+#[test]
+fn a_texture_reads_the_coordinate_set_it_names() {
+    let dir = TempDir::new("gltf-texcoord1");
+    dir.write("checker.png", checker_png(CELLS));
+    let mut g = Gltf::default();
+    let positions = [[-2.0, -1.0, 0.0], [2.0, -1.0, 0.0], [2.0, 1.0, 0.0], [-2.0, 1.0, 0.0]];
+    let first = g.vec2(&[[0.75, 0.75]; 4]);
+    let second = g.vec2(&[[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]]);
+    g.mesh(&positions, Some(&QUAD_INDICES), &format!(r#","TEXCOORD_0":{first},"TEXCOORD_1":{second}"#));
+    g.meshes[0] = g.meshes[0].replace(r#""indices""#, r#""material":0,"indices""#);
+    g.textures.push(r#"{"source":0,"sampler":0}"#.into());
+    g.images.push(r#"{"uri":"checker.png"}"#.into());
+    g.samplers.push(r#"{"wrapS":33071,"wrapT":33071}"#.into());
+    g.cameras.push(r#"{"type":"perspective","perspective":{"yfov":0.5,"znear":0.1,"aspectRatio":2}}"#.into());
+    g.node(r#"{"mesh":0}"#.into(), true);
+    g.node(r#"{"camera":0,"translation":[0,0,5]}"#.into(), true);
+    let at = [(-1.0, 0.5, 0), (1.0, 0.5, 1), (-1.0, -0.5, 2), (1.0, -0.5, 3)];
+    for set in [0, 1] {
+        let mut g = Gltf { materials: vec![], ..g.clone() };
+        g.materials.push(format!(
+            r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":{set}}},"metallicFactor":0,"roughnessFactor":1}}}}"#
+        ));
+        let file = dir.write(&format!("set{set}.gltf"), g.json());
+        let loaded = from_gltf_file(&file, None).unwrap();
+        assert!(loaded.warnings.iter().all(|w| !w.contains("TEXCOORD")), "{:?}", loaded.warnings);
+        let mut scene = whitted(loaded.scene);
+        (scene.image.width, scene.image.height) = (640, 320);
+        let (film, _) = render(&scene);
+        for (x, y, cell) in at {
+            // Set 0 is (0.75, 0.75) everywhere: the bottom-right cell, 3.
+            let want = linear(CELLS[if set == 1 { cell } else { 3 }]);
+            assert_eq!(film.albedo[pixel_of(x, y)].to_array(), want, "texCoord {set}, cell {cell}");
         }
     }
 }

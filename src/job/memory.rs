@@ -120,6 +120,7 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
                 + m.normals.as_ref().map_or(0, |v| size(v.len(), 12))
                 + m.colors.as_ref().map_or(0, |v| size(v.len(), 12))
                 + m.uvs.as_ref().map_or(0, |v| size(v.len(), 8))
+                + m.uvs1.as_ref().map_or(0, |v| size(v.len(), 8))
                 + m.triangle_materials.as_ref().map_or(0, |v| size(v.len(), 4))
                 + text(&m.name)
         })
@@ -135,7 +136,9 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
         .materials
         .iter()
         .filter_map(|m| match &m.diffuse {
-            Texture::Image(t) => seen.insert(std::sync::Arc::as_ptr(&t.image)).then(|| t.image.size_bytes() as u64),
+            Texture::Image(t) => {
+                seen.insert(std::sync::Arc::as_ptr(&t.texture.image)).then(|| t.texture.image.size_bytes() as u64)
+            }
             _ => None,
         })
         .sum();

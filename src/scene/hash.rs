@@ -151,6 +151,11 @@ impl Feed {
         self.optional(m.colors.as_ref());
         self.optional(m.uvs.as_ref());
         self.optional(m.triangle_materials.as_ref());
+        // Hashed only when present (tagged 2), so that the hash of a mesh without it is unchanged.
+        if let Some(uvs1) = &m.uvs1 {
+            self.u64(2);
+            self.bulk(uvs1);
+        }
     }
 }
 
@@ -255,7 +260,7 @@ mod tests {
         let image = Image::from_texels("tex.png", texels.len(), 1, texels).unwrap();
         let texture =
             ImageTexture { image: image.into(), wrap_u: Wrap::Repeat, wrap_v: Wrap::Clamp, factor: Vec3::ONE };
-        s.materials[0].diffuse = Texture::Image(texture);
+        s.materials[0].diffuse = Texture::Image(crate::material::TextureSlot::plain(texture));
         s.meshes[0].uvs = Some(vec![Vec2::ZERO; s.meshes[0].positions.len()]);
         s.prototypes.push(s.meshes[0].clone());
         s.instances.push(Instance {
@@ -274,7 +279,7 @@ mod tests {
         // The same values in new allocations (a texture decoded again): the same fingerprint.
         let mut again = a.clone();
         let Texture::Image(t) = &mut again.materials[0].diffuse else { unreachable!() };
-        t.image = std::sync::Arc::new((*t.image).clone());
+        t.texture.image = std::sync::Arc::new((*t.texture.image).clone());
         assert_eq!(scene_hash(&a), scene_hash(&again));
         // On one thread as on several.
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
@@ -283,7 +288,7 @@ mod tests {
 
         let texel = |s: &mut Scene, i: usize| {
             let Texture::Image(t) = &mut s.materials[0].diffuse else { unreachable!() };
-            std::sync::Arc::make_mut(&mut t.image).texels[i].y += 1e-6;
+            std::sync::Arc::make_mut(&mut t.texture.image).texels[i].y += 1e-6;
         };
         type Change = Box<dyn Fn(&mut Scene)>;
         let changes: Vec<(&str, Change)> = vec![
@@ -297,14 +302,14 @@ mod tests {
                 "wrap",
                 Box::new(|s| {
                     let Texture::Image(t) = &mut s.materials[0].diffuse else { unreachable!() };
-                    t.wrap_u = Wrap::Clamp;
+                    t.texture.wrap_u = Wrap::Clamp;
                 }),
             ),
             (
                 "texture name",
                 Box::new(|s| {
                     let Texture::Image(t) = &mut s.materials[0].diffuse else { unreachable!() };
-                    std::sync::Arc::make_mut(&mut t.image).name = "other.png".into();
+                    std::sync::Arc::make_mut(&mut t.texture.image).name = "other.png".into();
                 }),
             ),
             ("uv", Box::new(|s| s.meshes[0].uvs.as_mut().unwrap()[1].x = 0.5)),

@@ -13,6 +13,9 @@ pub struct Mesh {
     pub normals: Option<Vec<Vec3>>,
     pub colors: Option<Vec<Vec3>>,
     pub uvs: Option<Vec<Vec2>>,
+    /// A second set of texture coordinates (glTF's `TEXCOORD_1`), read by the textures that
+    /// ask for it ([`crate::material::TextureSlot::tex_coord`]).
+    pub uvs1: Option<Vec<Vec2>>,
     /// Material of every triangle, unless `triangle_materials` says otherwise.
     pub material: u32,
     /// Material per triangle (OBJ `usemtl`), as long as `indices` when present.
@@ -49,6 +52,7 @@ impl Mesh {
             ("normals", self.normals.as_ref().map(Vec::len)),
             ("colours", self.colors.as_ref().map(Vec::len)),
             ("texture coordinates", self.uvs.as_ref().map(Vec::len)),
+            ("second texture coordinates", self.uvs1.as_ref().map(Vec::len)),
         ];
         for (what, len) in per_vertex {
             if let Some(len) = len.filter(|&l| l != n) {

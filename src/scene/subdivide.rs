@@ -43,6 +43,7 @@ fn once(mesh: &Mesh) -> Mesh {
         normals: mesh.normals.clone(),
         colors: mesh.colors.clone(),
         uvs: mesh.uvs.clone(),
+        uvs1: mesh.uvs1.clone(),
         material: mesh.material,
         triangle_materials: mesh.triangle_materials.as_ref().map(|m| m.iter().flat_map(|&x| [x; 4]).collect()),
     };
@@ -62,7 +63,7 @@ fn once(mesh: &Mesh) -> Mesh {
                 let mid = mid3(c);
                 c.push(mid);
             }
-            if let Some(t) = &mut out.uvs {
+            for t in [&mut out.uvs, &mut out.uvs1].into_iter().flatten() {
                 let mid: Vec2 = 0.5 * (t[i] + t[j]);
                 t.push(mid);
             }
@@ -89,6 +90,7 @@ mod tests {
             normals: Some(vec![Vec3::Z, Vec3::Z, Vec3::Y, Vec3::X]),
             colors: Some(vec![Vec3::ZERO, Vec3::ONE, Vec3::X, Vec3::Y]),
             uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE]),
+            uvs1: None,
             material: 3,
             triangle_materials: Some(vec![5, 6]),
         }

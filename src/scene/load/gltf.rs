@@ -634,7 +634,7 @@ impl Reader<'_> {
                 texture.index()
             ));
         }
-        if tex_coord != 0 {
+        if tex_coord > 1 {
             self.warn(format!("{what}: texture {} uses TEXCOORD_{tex_coord}; TEXCOORD_0 is used", texture.index()));
         }
         let image = texture.source();
@@ -885,8 +885,8 @@ impl Reader<'_> {
             name: mesh.name().map_or_else(|| format!("Mesh_{}", mesh.index()), str::to_string),
             ..Mesh::default()
         };
-        let (mut normals, mut colors, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut any_normals, mut any_colors, mut any_uvs) = (false, false, false);
+        let (mut normals, mut colors, mut uvs, mut uvs1) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut any_normals, mut any_colors, mut any_uvs, mut any_uvs1) = (false, false, false, false);
         let mut materials = Vec::new();
         for primitive in mesh.primitives() {
             let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
@@ -933,23 +933,25 @@ impl Reader<'_> {
             } else {
                 colors.extend(std::iter::repeat_n(Vec3::ONE, n));
             }
-            if let Some(a) = primitive.get(&gltf::Semantic::TexCoords(0)) {
+            for (set, uvs, any) in [(0, &mut uvs, &mut any_uvs), (1, &mut uvs1, &mut any_uvs1)] {
+                let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
+                    uvs.extend(std::iter::repeat_n(Vec2::ZERO, n));
+                    continue;
+                };
                 let types = [DataType::F32, DataType::U8, DataType::U16];
-                self.check_accessor(&a, &types, &[Dimensions::Vec2], &format!("{what} TEXCOORD_0"))?;
+                self.check_accessor(&a, &types, &[Dimensions::Vec2], &format!("{what} TEXCOORD_{set}"))?;
                 if a.count() != n {
-                    return Err(format!("{what}: TEXCOORD_0 has {} elements for {n} positions", a.count()));
+                    return Err(format!("{what}: TEXCOORD_{set} has {} elements for {n} positions", a.count()));
                 }
                 // glTF's (0, 0) is the image's top-left; strahl's (OBJ's) its bottom-left.
                 uvs.extend(
                     reader
-                        .read_tex_coords(0)
+                        .read_tex_coords(set)
                         .into_iter()
                         .flat_map(|t| t.into_f32())
                         .map(|[u, v]| Vec2::new(u, 1.0 - v)),
                 );
-                any_uvs = true;
-            } else {
-                uvs.extend(std::iter::repeat_n(Vec2::ZERO, n));
+                *any = true;
             }
             let triangles_before = out.indices.len();
             let corners: Vec<u32> = match primitive.indices() {
@@ -1000,6 +1002,7 @@ impl Reader<'_> {
         out.normals = any_normals.then_some(normals);
         out.colors = any_colors.then_some(colors);
         out.uvs = any_uvs.then_some(uvs);
+        out.uvs1 = any_uvs1.then_some(uvs1);
         match materials.first() {
             Some(&first) if materials.iter().all(|&m| m == first) => out.material = first,
             Some(_) => out.triangle_materials = Some(materials),

@@ -561,12 +561,12 @@ impl MtlBlock {
         Material {
             name: self.name.clone(),
             diffuse: match &self.map_kd {
-                Some(image) => Texture::Image(crate::texture::ImageTexture {
+                Some(image) => Texture::Image(crate::material::TextureSlot::plain(crate::texture::ImageTexture {
                     image: image.clone(),
                     wrap_u: crate::texture::Wrap::Repeat,
                     wrap_v: crate::texture::Wrap::Repeat,
                     factor: self.kd.unwrap_or(Vec3::ONE),
-                }),
+                })),
                 None => Texture::Constant(self.kd.unwrap_or(Vec3::splat(0.8))),
             },
             specular: if illum <= 1 || mirror { Vec3::ZERO } else { ks },
