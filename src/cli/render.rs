@@ -85,7 +85,9 @@ pub struct RenderArgs {
     /// diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect, glossy_color,
     /// transmission_direct, transmission_indirect, transmission_color, background, position,
     /// object_index, material_index, crypto_object, crypto_material, disagreement (the camera
-    /// rays traced through both backends; not in `all`), sample_count, variance.
+    /// rays traced through both backends; not in `all`), sample_count, variance,
+    /// denoising_albedo, denoising_normal (OIDN's guides, seen through mirrors and glass; not in
+    /// `all`, added by --denoise).
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     passes: Option<Vec<String>>,
     /// Render the background transparent: rays that escape give RGBA 0, alpha is coverage.
