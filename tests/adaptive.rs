@@ -350,3 +350,30 @@ fn bad_thresholds_are_refused_in_one_line() {
     let e = common::fails(&dir, &["render", file.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert!(e.contains("bad.toml:15:") && e.contains("adaptive_threshold -1 must be finite and > 0"), "{e}");
 }
+
+/// `--help` says it: the minimum (64 at T = 0.01, first test after 80 samples) can exceed
+/// `--spp`, and then every pixel takes all `--spp` samples, as without adaptive sampling: at
+/// `--spp 80` every pixel's sample count is 80 and the beauty is the uniform render's, bit for
+/// bit.
+#[test]
+fn below_the_first_test_every_pixel_takes_all_samples_as_without_adaptive_sampling() {
+    let help = strahl(&["render", "--help"]);
+    let help = text(&help.stdout).split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        help.contains("max(4, ceil(16/T^0.3))") && help.contains("The minimum can exceed `--spp`"),
+        "render --help: {help}"
+    );
+    let dir = TempDir::new("below-first-test");
+    let (adaptive, uniform) = (dir.path("adaptive.exr"), dir.path("uniform.exr"));
+    render(&adaptive, &["--spp", "80", "--adaptive-threshold", THRESHOLD, "--passes", "default,sample_count"]);
+    render(&uniform, &["--spp", "80", "--passes", "default"]);
+    let (_, _, a) = read_exr(&adaptive);
+    let (_, _, u) = read_exr(&uniform);
+    let counts = channel(&a, "ViewLayer.Debug Sample Count.X");
+    assert!(counts.iter().all(|&c| c == 1.0), "some pixel stopped before --spp");
+    for c in ["R", "G", "B", "A"] {
+        let name = format!("ViewLayer.Combined.{c}");
+        let same = channel(&a, &name).iter().zip(channel(&u, &name)).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same, "{name} differs from the uniform render's");
+    }
+}

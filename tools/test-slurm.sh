@@ -6,7 +6,8 @@
 # submits `strahl farm slurm` for an 8-tile render into a folder whose name holds quotes, a
 # space, '#', '%A' and '$( )', waits by polling squeue/sacct, compares the merged EXR with a
 # single-process render byte for byte, and checks the logs are named as meant and nothing
-# ran; then makes a task fail, and finishes the frame as docs/farm.md says (task and merge again). Every daemon it started is stopped by PID on every exit path. Needs root (it writes
+# ran; with --denoise (when this strahl has OIDN), the merged and denoised frame against
+# `render --denoise` byte for byte; then makes a task fail, and finishes the frame as docs/farm.md says (task and merge again). Every daemon it started is stopped by PID on every exit path. Needs root (it writes
 # /etc/munge and starts daemons).
 #
 # Exit status: 0 passed or skipped (said loudly: not root, or no apt-get to install Slurm), 1 failed.
@@ -164,6 +165,27 @@ pwned=$(find "$WORK" "$ROOT" -name PWNED 2>/dev/null | head -1)
 [ -z "$pwned" ] || fail "a path ran as a command: $pwned"
 log "the 8-tile Slurm render merged equals the single-process render byte for byte ($(seconds) s)"
 
+# 7b. With --denoise: the merge job denoises the merged frame once, which must be the bytes of
+# the single-process `render --denoise` (tiles with the passes `--denoise` adds).
+if "$STRAHL" denoise --help >/dev/null 2>&1 && "$STRAHL" render "$SCENE" -o "$WORK/out/dn-probe.exr" --width 8 --height 8 --spp 1 --denoise >/dev/null 2>&1; then
+  DN=(--width 96 --height 72 --spp 2 --passes default,denoising_albedo,denoising_normal)
+  D=$WORK/out/denoised
+  mkdir -p "$D"
+  "$STRAHL" render "$SCENE" -o "$WORK/out/single-denoised.exr" "${DN[@]}" --denoise --threads 2 >/dev/null 2>&1 \
+    || fail "the single render --denoise failed"
+  ids=$("$STRAHL" farm slurm "$SCENE" -o "$D/frame.exr" --tiles 8 --cpus 1 --denoise --submit -- "${DN[@]}" | tail -1) \
+    || fail "strahl farm slurm --denoise --submit failed"
+  read -r array merge <<<"$ids"
+  wait_for "$array,$merge"
+  [ -f "$D/frame.exr" ] || { cat "$D/frame.exr.farm/"*.log >&2 2>/dev/null; fail "no merged, denoised image"; }
+  cmp "$WORK/out/single-denoised.exr" "$D/frame.exr" || fail "the merged, denoised EXR differs from render --denoise"
+  log "the 8-tile Slurm render merged and denoised equals render --denoise byte for byte ($(seconds) s)"
+  denoised=1
+else
+  log "this strahl has no OIDN (make oidn): the --denoise run is skipped"
+  denoised=0
+fi
+
 # 8. After a failed task (tile 3's path is a folder), the merge still runs (afterany) and
 # refuses, naming the tile; the two commands of docs/farm.md then finish the same frame.
 R=$WORK/out/recover
@@ -180,4 +202,4 @@ merge=$(sbatch --parsable --dependency=afterany:"$id" "$R/frame.exr.farm/merge.s
 wait_for "$id,$merge"
 cmp "$WORK/out/single.exr" "$R/frame.exr" || fail "the frame finished after a failed task differs from the single-process render"
 log "after a failed task, resubmitting it and the merge gave the same frame ($(seconds) s in all)"
-echo "2 passed, 0 failed"
+if [ "$denoised" -eq 1 ]; then echo "3 passed, 0 failed"; else echo "2 passed, 0 failed, 1 skipped"; fi

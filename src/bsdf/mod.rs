@@ -28,6 +28,7 @@
 
 mod albedo;
 mod blinn_phong;
+mod denoising;
 mod frame;
 mod fresnel;
 mod ggx;
@@ -42,6 +43,7 @@ mod specular;
 #[cfg(test)]
 mod tests;
 
+pub use denoising::DenoisingSplit;
 pub use frame::Frame;
 pub use ggx::SMOOTH_ALPHA;
 pub use gltf::{PbrParams, appendix_b, gltf};

@@ -67,7 +67,9 @@ pub struct SlurmArgs {
     #[arg(long)]
     submit: bool,
     /// Denoise the merged frame once with Intel Open Image Denoise (`strahl denoise`, run by the
-    /// merge job); the tiles must render the combined, albedo and normal passes.
+    /// merge job); the tiles must render the combined, albedo and normal passes, and should
+    /// render denoising_albedo and denoising_normal (what `render --denoise` adds, and the
+    /// denoiser's better guides; without them it uses albedo and normal).
     #[arg(long)]
     denoise: bool,
     /// Further `strahl render` options for every tile, after `--` (e.g. `-- --spp 16`).

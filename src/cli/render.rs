@@ -63,9 +63,12 @@ pub struct RenderArgs {
     clamp: Option<f32>,
     /// Adaptive sampling, Cycles' noise threshold (0.01 is Cycles' usual value; lower: less
     /// noise, more samples): the path tracer stops sampling a pixel once its own noise estimate
-    /// is below T, testing every 16 samples after a minimum (64 at 0.01), so `--spp` is the
-    /// most samples a pixel takes; 0 turns it off (overrides `[render] adaptive_threshold`;
-    /// see docs/rendering.md) [default: off].
+    /// is below T, testing every 16 samples after a minimum of max(4, ceil(16/T^0.3)) samples
+    /// (Cycles' rule: 64 at T = 0.01, first test after 80), so `--spp` is the most samples a
+    /// pixel takes. The minimum can exceed `--spp`: then no pixel is ever tested and every
+    /// pixel takes all `--spp` samples, as without adaptive sampling (at T = 0.01, any `--spp`
+    /// up to 80). 0 turns it off (overrides `[render] adaptive_threshold`; see
+    /// docs/rendering.md) [default: off].
     #[arg(long, value_name = "T", allow_negative_numbers = true)]
     adaptive_threshold: Option<f32>,
     /// The radiance from far away along rays that leave the scene (overrides the scene's
@@ -81,8 +84,10 @@ pub struct RenderArgs {
     /// indirect and colour passes), or names from combined, depth, normal, albedo, emission,
     /// diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect, glossy_color,
     /// transmission_direct, transmission_indirect, transmission_color, background, position,
-    /// distance, object_index, material_index, crypto_object, crypto_material, disagreement (the camera
-    /// rays traced through both backends; not in `all`), sample_count, variance.
+    /// distance, object_index, material_index, crypto_object, crypto_material, disagreement (the
+    /// camera rays traced through both backends; not in `all`), sample_count, variance,
+    /// denoising_albedo, denoising_normal (OIDN's guides, seen through mirrors and glass; not in
+    /// `all`, added by --denoise).
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     passes: Option<Vec<String>>,
     /// Render the background transparent: rays that escape give RGBA 0, alpha is coverage.
@@ -100,14 +105,16 @@ pub struct RenderArgs {
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
     /// Denoise the frame with Intel Open Image Denoise once it is written (as `strahl denoise`
-    /// does; adds the combined, albedo, normal and depth passes). Not with --region/--tile:
-    /// denoise the merged frame (`strahl denoise`), or tiles show seams.
+    /// does; adds the combined, albedo, normal, depth, denoising_albedo and denoising_normal
+    /// passes); the --png preview shows the denoised frame. Not with --region/--tile: denoise
+    /// the merged frame (`strahl denoise`), or tiles show seams.
     #[arg(long, conflicts_with_all = ["region", "tile"])]
     denoise: bool,
 }
 
 /// The passes `--denoise` needs, added to those asked for.
-const DENOISE_PASSES: [Pass; 4] = [Pass::Combined, Pass::Albedo, Pass::Normal, Pass::Depth];
+const DENOISE_PASSES: [Pass; 6] =
+    [Pass::Combined, Pass::Albedo, Pass::Normal, Pass::Depth, Pass::DenoisingAlbedo, Pass::DenoisingNormal];
 
 /// `--passes` with what denoising needs added (the scene's passes when `--passes` is absent).
 fn passes_with_denoising(asked: Option<Vec<String>>, scene: PassSet) -> Vec<String> {
@@ -126,7 +133,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.denoise {
         strahl::output::denoise::check_available()?;
     }
-    let exr_path = output.exr.clone();
+    let (exr_path, png, exposure) = (output.exr.clone(), output.png.clone(), output.exposure);
     if MeshFormat::of(&args.scene).is_some() {
         bail!(
             "{}: is a mesh file, with no camera or lights to render it by; name it in a scene file \
@@ -175,9 +182,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let write_seconds = job.write(&mut rendered, &observer)?;
     print!("{}", job.summary(&rendered, write_seconds));
     if args.denoise {
-        strahl::output::denoise::denoise_in_place(&exr_path)
+        let beauty = strahl::output::denoise::denoise_in_place(&exr_path)
             .map_err(|e| anyhow::anyhow!("{e} (it holds the frame as rendered, not denoised)"))?;
         println!("denoised {}", exr_path.display());
+        if let Some(png) = &png {
+            strahl::output::png::write_rgb(beauty.width, beauty.height, &beauty.rgb, exposure, png)
+                .map_err(|e| anyhow::anyhow!("{e} (it holds the frame as rendered, not denoised)"))?;
+            println!("wrote the denoised preview {}", png.display());
+        }
     }
     Ok(())
 }

@@ -38,6 +38,7 @@
 //! exactly one tile, so the order tiles finish in does not matter.
 
 pub mod adaptive;
+pub mod features;
 pub mod lights;
 pub mod path;
 pub mod path_lights;
@@ -274,6 +275,7 @@ fn render_tile<A: Accel, I: Integrator>(
     let passes = scene.output.passes;
     let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
     let compare = passes.contains(Pass::Disagreement);
+    let features = passes.contains(Pass::DenoisingAlbedo) || passes.contains(Pass::DenoisingNormal);
     let mut pixels = tile.pixels_in_packet_order();
     let spp = scene.image.spp;
     let lens = camera.has_lens();
@@ -309,6 +311,11 @@ fn render_tile<A: Accel, I: Integrator>(
         for (acc, s) in accumulators.iter_mut().zip(samples.iter()) {
             let object = s.first.filter(|_| crypto).map(|f| ids.object_of(scene, &f.hit));
             acc.add(s.radiance, &s.split, s.first, object);
+        }
+        if features {
+            for ((acc, ray), hit) in accumulators.iter_mut().zip(&rays).zip(hits.iter()) {
+                acc.add_features(features::denoising_features(scene, accel, ray, hit.as_ref(), &mut counts)?);
+            }
         }
         if let Some(rule) = adaptive.as_ref().filter(|rule| rule.tests_after(sample)) {
             n = retire_converged(rule, n, &mut pixels, &mut samplers, &mut accumulators);

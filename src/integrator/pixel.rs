@@ -13,6 +13,7 @@
 //! [`crate::output::film`]).
 
 use super::adaptive::{Adaptive, PixelNoise};
+use super::features::Features;
 use crate::accel::Hit;
 use crate::bsdf::{BsdfEval, PassClass};
 use crate::camera::Camera;
@@ -102,6 +103,8 @@ pub struct PixelAccumulator {
     disagreements: u32,
     /// The sample count and the noise estimates of adaptive sampling and the variance pass.
     noise: PixelNoise,
+    /// The sum of the samples' denoising features, when their passes are on.
+    features: Features,
 }
 
 /// The lobe family whose colour divides a direct or indirect light pass.
@@ -161,6 +164,13 @@ impl PixelAccumulator {
         Vec3::new(div(mean.x, colour.x), div(mean.y, colour.y), div(mean.z, colour.z))
     }
 
+    /// Adds one sample's denoising features ([`super::features`]); their passes are the mean
+    /// over all the pixel's samples, like the beauty (a miss adds 0), so they are filtered as
+    /// the beauty is, which OIDN asks.
+    pub fn add_features(&mut self, features: Features) {
+        self.features += features;
+    }
+
     /// Counts one sample whose camera ray's first hit a second backend finds differently.
     pub fn add_disagreement(&mut self) {
         self.disagreements += 1;
@@ -208,6 +218,8 @@ impl PixelAccumulator {
                 Pass::Disagreement => out[0] = self.disagreements as f32 / spp as f32,
                 Pass::SampleCount => out[0] = spp as f32 / scene.image.spp as f32,
                 Pass::Variance => out.copy_from_slice(&self.noise.variance_of_mean().to_array()),
+                Pass::DenoisingAlbedo => out.copy_from_slice(&(self.features.albedo / spp as f32).to_array()),
+                Pass::DenoisingNormal => out.copy_from_slice(&(self.features.normal / spp as f32).to_array()),
                 Pass::CryptoObject => {
                     let mut counts: Vec<(u32, u32)> =
                         self.objects.iter().map(|&(o, n)| (ids.object_id_bits[o as usize], n)).collect();

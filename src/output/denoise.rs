@@ -14,8 +14,8 @@
 //! |---|---|---|
 //! | `Combined` (`R G B A` in `nuke`) | `R G B A` | the denoised beauty; A as rendered |
 //! | `Noisy Image` | `R G B A` | the beauty as rendered |
-//! | `Denoising Albedo` | `R G B` | the albedo pass OIDN was given (`DiffCol`) |
-//! | `Denoising Normal` | `X Y Z` | the normal pass OIDN was given (`Normal`, world space) |
+//! | `Denoising Albedo` | `R G B` | the albedo OIDN was given: the file's own, else a copy of `DiffCol` |
+//! | `Denoising Normal` | `X Y Z` | the normal OIDN was given: the file's own, else a copy of `Normal` (world space) |
 //! | `Denoising Depth` | `Z` | the `Depth` pass, when the file has one |
 //!
 //! Each new channel keeps its source's sample type (half under `--half`); the file keeps its
@@ -25,13 +25,15 @@
 //! the whole frame rendered and denoised in one process (`render --denoise` denoises the file
 //! it has written, through this function).
 //!
-//! **The auxiliary passes are used as clean** (`cleanAux = true`, Cycles' prefilter mode
-//! "None"). strahl's albedo and normal are means over the pixel's first hits, with no
-//! stochastic noise but the pixel footprint's (no depth of field or motion blur), which is what
-//! `cleanAux` asks. Cycles' "Accurate" mode first denoises the albedo and normal with OIDN's
-//! auxiliary-only `RT` filters; the `oidn` crate (2.5.1) has no safe call for a filter without
-//! a colour image, and strahl keeps `unsafe` out of everything but the Embree wrapper, so that
-//! prefilter is not run.
+//! **The auxiliary images** are the render's denoising features (`Denoising Albedo`,
+//! `Denoising Normal`, [`crate::integrator::features`]: Cycles' features, seen through
+//! mirrors and glass), or, in a file without them, the first hit's `DiffCol` and `Normal`.
+//! Either is free of sampling noise but the pixel footprint's (strahl follows both directions
+//! at glass where Cycles samples one), so they are used as clean (`cleanAux = true`).
+//! Cycles' "Accurate" mode first denoises the albedo and normal with OIDN's auxiliary-only
+//! `RT` filters; the `oidn` crate (2.5.1) always sets its filter's `color` image, so it has no
+//! safe call for a filter without one, and strahl keeps `unsafe` out of everything but the
+//! Embree wrapper: that prefilter is not run.
 //!
 //! **Determinism.** OIDN on one CPU gives the same bytes for the same input whatever the number
 //! of its worker threads (checked: 1 and 2 cores, `tests/denoise.rs`); OIDN's documentation
@@ -111,11 +113,21 @@ pub fn denoise_file(input: &Path, output: &Path) -> Result<(), DenoiseError> {
     crate::sys::atomic::write_atomically(output, &denoised).map_err(|e| DenoiseError(e.to_string()))
 }
 
-/// Replaces the EXR at `path` (which the caller has just written) by its denoised form, atomically.
-pub fn denoise_in_place(path: &Path) -> Result<(), DenoiseError> {
+/// The denoised beauty as the file stores it (half-rounded under `--half`): RGB triples, row
+/// by row, for the PNG preview of a denoised render.
+pub struct Beauty {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<f32>,
+}
+
+/// Replaces the EXR at `path` (which the caller has just written) by its denoised form,
+/// atomically; returns the denoised beauty as written.
+pub fn denoise_in_place(path: &Path) -> Result<Beauty, DenoiseError> {
     let bytes = read_input(path)?;
-    let denoised = denoise_exr(path, &bytes)?;
-    crate::sys::atomic::write_atomically(path, &denoised).map_err(|e| DenoiseError(e.to_string()))
+    let (denoised, beauty) = denoise_exr_and_beauty(path, &bytes)?;
+    crate::sys::atomic::write_atomically(path, &denoised).map_err(|e| DenoiseError(e.to_string()))?;
+    Ok(beauty)
 }
 
 fn read_input(path: &Path) -> Result<Vec<u8>, DenoiseError> {
@@ -131,6 +143,11 @@ fn read_input(path: &Path) -> Result<Vec<u8>, DenoiseError> {
 
 /// The denoised EXR of the EXR `bytes` (read from `path`, which errors name).
 pub fn denoise_exr(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, DenoiseError> {
+    denoise_exr_and_beauty(path, bytes).map(|(exr, _)| exr)
+}
+
+/// [`denoise_exr`], and the denoised beauty as the file holds it.
+fn denoise_exr_and_beauty(path: &Path, bytes: &[u8]) -> Result<(Vec<u8>, Beauty), DenoiseError> {
     // What decoding will hold, from the header, before anything is decoded: the samples as read
     // (at most 4 bytes each), the output's copies and OIDN's three images in and one out.
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).or_else(|e| fail(path, e))?;
@@ -173,8 +190,18 @@ pub fn denoise_exr(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, DenoiseError> {
             .collect()
     };
     let combined = need("combined", names.combined, "RGB")?;
-    let albedo = need("albedo", names.albedo, "RGB")?;
-    let normal = need("normal", names.normal, "XYZ")?;
+    // The render's denoising features when it wrote them, else the first hit's DiffCol and Normal.
+    let features = |name: &str, components: &str| -> Option<Vec<usize>> {
+        components.chars().map(|c| find(list, &format!("{layer_prefix}{name}.{c}"))).collect()
+    };
+    let (albedo, albedo_written) = match features("Denoising Albedo", "RGB") {
+        Some(a) => (a, true),
+        None => (need("albedo", names.albedo, "RGB")?, false),
+    };
+    let (normal, normal_written) = match features("Denoising Normal", "XYZ") {
+        Some(n) => (n, true),
+        None => (need("normal", names.normal, "XYZ")?, false),
+    };
     let alpha = find(list, &format!("{}A", names.combined));
     let depth = find(list, names.depth);
 
@@ -191,13 +218,17 @@ pub fn denoise_exr(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, DenoiseError> {
     let copy = |source: usize, name: String| AnyChannel { name: Text::from(name.as_str()), ..list[source].clone() };
     for (i, c) in ["R", "G", "B"].iter().enumerate() {
         added.push(copy(combined[i], format!("{layer_prefix}Noisy Image.{c}")));
-        added.push(copy(albedo[i], format!("{layer_prefix}Denoising Albedo.{c}")));
+        if !albedo_written {
+            added.push(copy(albedo[i], format!("{layer_prefix}Denoising Albedo.{c}")));
+        }
     }
     if let Some(a) = alpha {
         added.push(copy(a, format!("{layer_prefix}Noisy Image.A")));
     }
     for (i, c) in ["X", "Y", "Z"].iter().enumerate() {
-        added.push(copy(normal[i], format!("{layer_prefix}Denoising Normal.{c}")));
+        if !normal_written {
+            added.push(copy(normal[i], format!("{layer_prefix}Denoising Normal.{c}")));
+        }
     }
     if let Some(d) = depth {
         added.push(copy(d, format!("{layer_prefix}Denoising Depth.Z")));
@@ -209,6 +240,7 @@ pub fn denoise_exr(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, DenoiseError> {
             _ => FlatSamples::F32(values.collect()),
         };
     }
+    let beauty = Beauty { width: frame.width as u32, height: frame.height as u32, rgb: interleave(list, &combined) };
     list.extend(added);
     list.sort_by(|a, b| a.name.cmp(&b.name));
     // Chunks in increasing line order: the same bytes whatever order the compressing threads
@@ -219,7 +251,7 @@ pub fn denoise_exr(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, DenoiseError> {
     // The `exr` crate writes the header's other attributes in a `HashMap`'s order.
     let mut bytes = out.into_inner();
     crate::output::exr::sort_header_attributes(&mut bytes);
-    Ok(bytes)
+    Ok((bytes, beauty))
 }
 
 fn find(list: &[AnyChannel<FlatSamples>], name: &str) -> Option<usize> {

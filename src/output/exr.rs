@@ -152,7 +152,7 @@ impl Compression {
                 let float: Vec<&str> = output
                     .passes
                     .iter()
-                    .filter(|&p| !(half && (p.is_colour() || p == Pass::Normal)))
+                    .filter(|&p| !(half && (p.is_colour() || matches!(p, Pass::Normal | Pass::DenoisingNormal))))
                     .map(Pass::name)
                     .collect();
                 let note = (!float.is_empty()).then(|| {
@@ -237,6 +237,8 @@ pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
         Pass::Disagreement => ("Disagreement", "disagreement", &["X"]),
         Pass::SampleCount => ("Debug Sample Count", "sample_count", &["X"]),
         Pass::Variance => ("Variance", "variance", &RGBA),
+        Pass::DenoisingAlbedo => ("Denoising Albedo", "Denoising Albedo", &RGBA),
+        Pass::DenoisingNormal => ("Denoising Normal", "Denoising Normal", &XYZ),
         Pass::CryptoObject | Pass::CryptoMaterial => {
             let layer = format!("{}{:02}", crypto_type(pass), component / 4);
             return match layout {
@@ -280,7 +282,7 @@ pub(crate) fn file_channels<'a>(film: &'a Film, options: &ExrOptions) -> Vec<Cha
         .into_iter()
         .map(|view| Channel {
             name: channel_name(options.layout, view.pass, view.component),
-            half: options.half && (view.pass.is_colour() || view.pass == Pass::Normal),
+            half: options.half && (view.pass.is_colour() || matches!(view.pass, Pass::Normal | Pass::DenoisingNormal)),
             view,
         })
         .collect();

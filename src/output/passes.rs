@@ -41,6 +41,8 @@
 //! | `disagreement` | `Disagreement` (X) | the fraction of the pixel's camera rays whose first hit (primitive, or none) differs between Embree and the native BVH | 1 |
 //! | `sample_count` | `Debug Sample Count` (X) | the samples the pixel took divided by `spp`, as Cycles writes it: 1 but where adaptive sampling stopped the pixel early ([`crate::integrator::adaptive`]) | 1 |
 //! | `variance` | `Variance` (RGB) | the variance of the pixel's beauty (the mean of its samples), per channel ([`crate::integrator::adaptive::PixelNoise::variance_of_mean`]) | (W/(m²·sr))² |
+//! | `denoising_albedo` | `Denoising Albedo` (RGB) | the albedo of the first surface that is not mostly specular, seen through mirrors and glass (Fresnel-weighted), a light's or the background's colour where they are seen; mean over all samples ([`crate::integrator::features`]); OIDN's albedo | 1 |
+//! | `denoising_normal` | `Denoising Normal` (XYZ) | the world-space shading normal of that surface, Fresnel-weighted through glass, 0 on lights and misses; mean over all samples; OIDN's normal | 1 |
 //!
 //! `--passes diffuse`, `glossy` and `transmission` name a family's three passes at once, and
 //! `light` every light-path pass with the colours.
@@ -57,6 +59,11 @@
 //! BVH would not agree (grazing rays along shared edges, where rounding decides;
 //! `strahl crosscheck` explains them). It costs the second BVH and a second camera ray per
 //! sample, so `all` leaves it out.
+//!
+//! `denoising_albedo` and `denoising_normal` follow the camera ray through mirrors and glass
+//! ([`crate::integrator::features`]), tracing rays of their own (+10 % time on the Cornell
+//! box), so `all` leaves them out too; `render --denoise` adds them, and a farm's tiles name
+//! them in `--passes` for `farm slurm --denoise` to denoise with them.
 
 use std::fmt;
 
@@ -86,6 +93,8 @@ pub enum Pass {
     Disagreement,
     SampleCount,
     Variance,
+    DenoisingAlbedo,
+    DenoisingNormal,
 }
 
 /// The light-path passes that hold radiance, in the order of
@@ -110,7 +119,7 @@ pub const FAMILIES: [(Pass, Pass, Pass); 3] = [
 
 impl Pass {
     /// Every pass, in the order of the module docs (and of the channels in the film).
-    pub const ALL: [Pass; 23] = [
+    pub const ALL: [Pass; 25] = [
         Pass::Combined,
         Pass::Depth,
         Pass::Normal,
@@ -134,6 +143,8 @@ impl Pass {
         Pass::Disagreement,
         Pass::SampleCount,
         Pass::Variance,
+        Pass::DenoisingAlbedo,
+        Pass::DenoisingNormal,
     ];
 
     /// The name on the command line and in `[output] passes`.
@@ -162,6 +173,8 @@ impl Pass {
             Pass::Disagreement => "disagreement",
             Pass::SampleCount => "sample_count",
             Pass::Variance => "variance",
+            Pass::DenoisingAlbedo => "denoising_albedo",
+            Pass::DenoisingNormal => "denoising_normal",
         }
     }
 
@@ -188,7 +201,7 @@ impl Pass {
     /// Whether the pass is a colour (radiance or reflectance). `--half` stores these, and the
     /// normals, as half floats ([`crate::output::exr`]).
     pub fn is_colour(self) -> bool {
-        self == Pass::Combined || self.is_light() || self.is_family_colour()
+        self == Pass::Combined || self == Pass::DenoisingAlbedo || self.is_light() || self.is_family_colour()
     }
 
     /// Floats per pixel in the film ([`crate::output::film::Film::aovs`]); `crypto_levels` ranks of
@@ -231,9 +244,11 @@ impl PassSet {
         PassSet(passes.iter().fold(1 << Pass::Combined as u32, |bits, &p| bits | 1 << p as u32))
     }
 
-    /// Every pass but `disagreement` (which traces a second backend, see the module docs).
+    /// Every pass but `disagreement` (which traces a second backend, see the module docs) and
+    /// the denoising features (which trace rays of their own; `--denoise` adds them).
     pub fn all() -> PassSet {
-        PassSet(PassSet::of(&Pass::ALL).0 & !(1 << Pass::Disagreement as u32))
+        let traced = [Pass::Disagreement, Pass::DenoisingAlbedo, Pass::DenoisingNormal];
+        PassSet(PassSet::of(&Pass::ALL).0 & !traced.iter().fold(0, |bits, &p| bits | 1 << p as u32))
     }
 
     /// This set and `passes`.

@@ -83,16 +83,37 @@ fn srgb8_with(table: &Thresholds, linear: f32, scale: f32) -> u8 {
 
 /// Encodes `film` as an RGB PNG in memory, with the exposure `exposure_ev` in stops.
 pub fn encode(film: &Film, exposure_ev: f32) -> Result<Vec<u8>, image::ImageError> {
+    encode_rgb(film.width, film.height, film.rgba.iter().map(|px| [px[0], px[1], px[2]]), exposure_ev)
+}
+
+/// Encodes the linear RGB `pixels` (row by row) of a `width` × `height` image as an RGB PNG
+/// in memory, with the exposure `exposure_ev` in stops.
+pub fn encode_rgb(
+    width: u32,
+    height: u32,
+    pixels: impl Iterator<Item = [f32; 3]>,
+    exposure_ev: f32,
+) -> Result<Vec<u8>, image::ImageError> {
     let (scale, table) = (exposure_ev.exp2(), thresholds());
-    let mut pixels = vec![0u8; 3 * film.rgba.len()];
-    for (rgb, px) in pixels.chunks_exact_mut(3).zip(&film.rgba) {
-        for (code, &linear) in rgb.iter_mut().zip(px) {
-            *code = srgb8_with(table, linear, scale);
-        }
+    let mut codes = Vec::with_capacity(3 * width as usize * height as usize);
+    for px in pixels {
+        codes.extend(px.map(|linear| srgb8_with(table, linear, scale)));
     }
     let mut bytes = Vec::new();
-    PngEncoder::new(&mut bytes).write_image(&pixels, film.width, film.height, image::ExtendedColorType::Rgb8)?;
+    PngEncoder::new(&mut bytes).write_image(&codes, width, height, image::ExtendedColorType::Rgb8)?;
     Ok(bytes)
+}
+
+/// Writes the preview of the linear RGB triples `rgb` to `path`, atomically: the PNG of a
+/// frame denoised after it was written ([`crate::output::denoise::Beauty`]).
+pub fn write_rgb(width: u32, height: u32, rgb: &[f32], exposure_ev: f32, path: &Path) -> Result<(), WriteError> {
+    if !exposure_ev.is_finite() {
+        return Err(WriteError::new(path, format!("exposure {exposure_ev} is not a finite number of stops")));
+    }
+    let pixels = rgb.chunks_exact(3).map(|p| [p[0], p[1], p[2]]);
+    let bytes = encode_rgb(width, height, pixels, exposure_ev)
+        .map_err(|e| WriteError::new(path, format!("cannot encode PNG: {e}")))?;
+    commit_all(vec![atomic::stage(path, &bytes)?])
 }
 
 /// Writes the preview of `film` to `path`, atomically.
