@@ -239,8 +239,8 @@ const PANEL_STRENGTHS: [f32; 4] = [1.0, 4.0, 16.0, 64.0];
 /// A room of `side × side` m lit by its ceiling: an `n × n` grid of small emissive quads (two
 /// triangles each, so `2n²` emitting triangles) 2.5 m above a grey floor, each quad 40 % of
 /// its cell's width, its radiance one of 4 colours × 4 strengths (1 to 64 W/(m²·sr)) drawn
-/// at random with `seed`, over eight grey icosahedra that cast shadows; seen by the path tracer
-/// from a corner at `width × height`, `spp` samples, depth `max_depth`. With `n = 100` it is
+/// at random, over eight grey icosahedra that cast shadows; seen by the path tracer looking
+/// down at the floor (no emitter in view) at `width × height`, `spp` samples, depth `max_depth`. With `n = 100` it is
 /// the 20,000-emitter scene of docs/performance.md ("Many lights").
 pub fn light_panel_room(n: u32, side: f32, width: u32, height: u32, spp: u32, max_depth: u32) -> Scene {
     let mut rng = Pcg64Mcg::seed_from_u64(29);
@@ -309,10 +309,10 @@ pub fn light_panel_room(n: u32, side: f32, width: u32, height: u32, spp: u32, ma
     }
     Scene {
         camera: CameraSpec {
-            eye: Vec3::new(-0.45 * side, 1.6, 0.45 * side),
-            target: Vec3::new(0.1 * side, 0.4, -0.1 * side),
+            eye: Vec3::new(-0.2 * side, 2.0, 0.2 * side),
+            target: Vec3::new(-0.12 * side, 0.0, 0.12 * side),
             up: Vec3::Y,
-            fov_deg: 70.0,
+            fov_deg: 40.0,
             lens: Default::default(),
         },
         image: ImageSpec {
