@@ -15,6 +15,7 @@ use super::progress::Progress;
 use anyhow::bail;
 use clap::Args;
 use strahl::job::{Observer, RenderJob, Settings};
+use strahl::light::set::LightSampler;
 use strahl::output::passes::{MAX_CRYPTO_LEVELS, Pass, PassSet};
 use strahl::scene::IntegratorKind;
 use strahl::scene::load::MeshFormat;
@@ -61,6 +62,12 @@ pub struct RenderArgs {
     /// scaled so its largest channel is at most C (less fireflies, less energy) [default: off].
     #[arg(long, value_name = "C", allow_negative_numbers = true)]
     clamp: Option<f32>,
+    /// How the path tracer chooses a light per shading point: by the light tree over the
+    /// emitters (`tree`: importance by power, distance and orientation, as pbrt-v4 and Cycles
+    /// do) or in proportion to power alone (`power`) [default: the scene's `[render]
+    /// light_sampler`, else tree].
+    #[arg(long, value_name = "NAME", value_parser = LightSampler::parse)]
+    light_sampler: Option<LightSampler>,
     /// Adaptive sampling, Cycles' noise threshold (0.01 is Cycles' usual value; lower: less
     /// noise, more samples): the path tracer stops sampling a pixel once its own noise estimate
     /// is below T, testing every 16 samples after a minimum of max(4, ceil(16/T^0.3)) samples
@@ -167,6 +174,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         output: Some(output),
         integrator: args.integrator,
         clamp: args.clamp,
+        light_sampler: args.light_sampler,
         adaptive_threshold: args.adaptive_threshold,
     };
     let job = RenderJob::new(&args.scene, loaded.scene, settings)?;

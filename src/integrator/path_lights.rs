@@ -1,5 +1,5 @@
-//! The scene's lights as the path tracer samples them: a [`LightSet`] built from the scene,
-//! and the map from a hit on an emitter (an area light's geometry, a triangle of an emissive
+//! The scene's lights as the path tracer samples them: a [`LightSet`] built from the scene
+//! (choosing by its `[render] light_sampler`: the light tree by default), and the map from a hit on an emitter (an area light's geometry, a triangle of an emissive
 //! mesh) to the light it is, for [`LightSet::pdf_hit`].
 //!
 //! The environment is the scene's `environment`, or, without one, a constant environment of
@@ -58,7 +58,14 @@ impl<'a> PathLights<'a> {
         }
         let bounds = scene.bounds();
         let radius = 0.5 * (bounds.max - bounds.min).length();
-        let set = LightSet::new(&scene.lights, &scene.area_lights, emitters, environment_of(scene), radius);
+        let set = LightSet::new(
+            &scene.lights,
+            &scene.area_lights,
+            emitters,
+            environment_of(scene),
+            radius,
+            scene.render.light_sampler,
+        );
         PathLights { scene, set, area_of_material, emitter_of_mesh }
     }
 

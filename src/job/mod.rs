@@ -169,6 +169,8 @@ pub struct Settings {
     pub integrator: Option<crate::scene::IntegratorKind>,
     /// The path tracer's clamp of indirect light (overrides `[render] clamp`).
     pub clamp: Option<f32>,
+    /// How the path tracer chooses lights (overrides `[render] light_sampler`).
+    pub light_sampler: Option<crate::light::set::LightSampler>,
     /// Adaptive sampling's noise threshold (overrides `[render] adaptive_threshold`; 0 turns
     /// it off).
     pub adaptive_threshold: Option<f32>,
@@ -233,6 +235,7 @@ impl RenderJob {
         scene.output.crypto_levels = settings.crypto_levels.unwrap_or(scene.output.crypto_levels);
         scene.render.integrator = settings.integrator.unwrap_or(scene.render.integrator);
         scene.render.clamp = settings.clamp.or(scene.render.clamp);
+        scene.render.light_sampler = settings.light_sampler.unwrap_or(scene.render.light_sampler);
         if let Some(threshold) = settings.adaptive_threshold {
             scene.render.set_adaptive_threshold(threshold);
         }

@@ -11,6 +11,7 @@ pub mod environment;
 pub mod environment_file;
 pub mod mesh;
 pub mod set;
+pub mod tree;
 
 use crate::math::Vec3;
 

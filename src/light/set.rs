@@ -1,10 +1,13 @@
 //! Every light of a scene behind one sampling interface, as the path tracer samples them: one
-//! light chosen per shading point, in proportion to its power, a direction towards it, and the
+//! light chosen per shading point (by the light tree, or in proportion to its power), a direction towards it, and the
 //! density with which that choice would have produced a direction a BSDF sample found (for
 //! multiple importance sampling).
 //!
 //! ```text
-//! choice        P(light) = Φ_light / Σ Φ     (a CDF over the lights' powers, luminance of RGB)
+//! choice, tree  P(light | p, n) from the light tree (crate::light::tree), over the powers
+//!               below and each light's bounds; directional lights and the environment are
+//!               its infinite lights
+//! choice, power P(light) = Φ_light / Σ Φ     (a CDF over the lights' powers, luminance of RGB)
 //!   point         Φ = 4π·I
 //!   directional   Φ = π·r²·E                 (r: the radius of the scene's bounding sphere)
 //!   quad, disk,   Φ = π·L·A  (2π·L·A two-sided)
@@ -29,6 +32,14 @@
 //! same numbers. A light of power 0 is never chosen (and its density is 0). Point and
 //! directional lights are delta lights: NEE only.
 //!
+//! **Which choice.** [`LightSampler::Tree`] is the default, as in pbrt-v4 (`BVHLightSampler`)
+//! and Cycles (its light tree): with thousands of emissive triangles, choosing by power alone
+//! sends most shadow rays to lights far away or facing elsewhere. [`LightSampler::Power`] (`[render]
+//! light_sampler = "power"`, `--light-sampler power`) keeps the choice by power alone, the
+//! reference the tree is measured against. With one light the two are the same (that light,
+//! probability exactly 1, the same random numbers); the tree gives the environment and
+//! directional lights a fixed share (pbrt-v4's rule) where power weighs them by their power.
+//!
 //! The set is built from plain lights (the scene imports the lights, so the lights cannot
 //! import the scene): the integrator maps a hit on an emitter to the [`Emitter`] it is.
 
@@ -38,8 +49,48 @@ use crate::light::Light;
 use crate::light::area::{AreaLight, Shape};
 use crate::light::environment::{Environment, luminance};
 use crate::light::mesh::MeshEmitter;
+use crate::light::tree::{LightBounds, LightExtent, LightTree};
+use crate::math::Aabb;
 use crate::math::{Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
+
+/// How [`LightSet::sample`] chooses a light (module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSampler {
+    /// By the light tree: importance at the shading point (the default).
+    #[default]
+    Tree,
+    /// In proportion to power, wherever the shading point is.
+    Power,
+}
+
+impl LightSampler {
+    /// Its name in the scene file and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampler::Tree => "tree",
+            LightSampler::Power => "power",
+        }
+    }
+
+    /// The sampler called `name`, or the one-line reason it is not one.
+    pub fn parse(name: &str) -> Result<LightSampler, String> {
+        match name {
+            "tree" => Ok(LightSampler::Tree),
+            "power" => Ok(LightSampler::Power),
+            _ => Err(format!("light_sampler {name:?} is not one of \"tree\", \"power\"")),
+        }
+    }
+}
+
+/// The choice among the entries.
+#[derive(Clone, Debug)]
+enum Selection {
+    /// No entries.
+    Nothing,
+    Power(Distribution1D),
+    Tree(LightTree),
+}
 
 /// One light sample seen from a shading point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,8 +137,8 @@ pub struct LightSet {
     meshes: Vec<MeshEmitter>,
     environment: Option<Environment>,
     entries: Vec<Entry>,
-    /// Over the entries, by power; `None` without entries.
-    selection: Option<Distribution1D>,
+    /// Over the entries.
+    selection: Selection,
     /// The entry of area light 0.
     area_base: usize,
     /// Per emissive mesh: the entry of its first triangle.
@@ -97,13 +148,14 @@ pub struct LightSet {
 
 impl LightSet {
     /// The set of these lights, in a scene whose bounding sphere has radius `scene_radius`
-    /// (for the power of directional lights and the environment).
+    /// (for the power of directional lights and the environment), choosing by `sampler`.
     pub fn new(
         delta: &[Light],
         area: &[AreaLight],
         meshes: Vec<MeshEmitter>,
         environment: Option<Environment>,
         scene_radius: f32,
+        sampler: LightSampler,
     ) -> LightSet {
         use std::f64::consts::PI;
         let r = if scene_radius.is_finite() && scene_radius > 0.0 { scene_radius as f64 } else { 1.0 };
@@ -136,7 +188,15 @@ impl LightSet {
             entries.len() - 1
         });
         let power: Vec<f32> = power.into_iter().map(|p| p as f32).collect();
-        let selection = (!entries.is_empty()).then(|| Distribution1D::new(&power));
+        let selection = match sampler {
+            _ if entries.is_empty() => Selection::Nothing,
+            LightSampler::Power => Selection::Power(Distribution1D::new(&power)),
+            LightSampler::Tree => {
+                let extents: Vec<LightExtent> =
+                    entries.iter().zip(&power).map(|(e, &phi)| extent(e, phi, delta, area, &meshes)).collect();
+                Selection::Tree(LightTree::new(&extents))
+            }
+        };
         LightSet {
             delta: delta.to_vec(),
             area: area.to_vec(),
@@ -160,16 +220,35 @@ impl LightSet {
         self.entries.is_empty()
     }
 
-    /// The probability of choosing entry `k`.
-    fn choice(&self, k: usize) -> f32 {
-        self.selection.as_ref().map_or(0.0, |s| s.probability(k))
+    /// The probability of choosing entry `k` at `p` with shading normal `n`.
+    fn choice(&self, k: usize, p: Vec3, n: Vec3) -> f32 {
+        match &self.selection {
+            Selection::Nothing => 0.0,
+            Selection::Power(d) => d.probability(k),
+            Selection::Tree(t) => t.pmf(p, n, k),
+        }
+    }
+
+    /// The light tree, when the set chooses by one.
+    pub fn tree(&self) -> Option<&LightTree> {
+        match &self.selection {
+            Selection::Tree(t) => Some(t),
+            _ => None,
+        }
     }
 
     /// Chooses a light for the shading point `p` (normal `n`) with `u_select`, samples it
     /// with `u`: the sample and the probability of having chosen that light. `None` when the
     /// chosen light cannot reach `p` (behind a one-sided light, `p` on it).
-    pub fn sample(&self, p: Vec3, _n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
-        let (k, choice, _) = self.selection.as_ref()?.sample_discrete(u_select);
+    pub fn sample(&self, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
+        let (k, choice) = match &self.selection {
+            Selection::Nothing => return None,
+            Selection::Power(d) => {
+                let (k, choice, _) = d.sample_discrete(u_select);
+                (k, choice)
+            }
+            Selection::Tree(t) => t.sample(p, n, u_select)?,
+        };
         if !(choice > 0.0) {
             return None;
         }
@@ -226,7 +305,7 @@ impl LightSet {
     /// The density (choice × solid angle) with which [`LightSet::sample`] from `p` (normal
     /// `n`) would have produced the direction `wi` that reached `emitter` at the point `y`
     /// (geometric normal `ng`, either side).
-    pub fn pdf_hit(&self, p: Vec3, _n: Vec3, wi: Vec3, emitter: Emitter, y: Vec3, ng: Vec3) -> f32 {
+    pub fn pdf_hit(&self, p: Vec3, n: Vec3, wi: Vec3, emitter: Emitter, y: Vec3, ng: Vec3) -> f32 {
         let d = (y - p).length();
         let (pdf, entry) = match emitter {
             Emitter::Area(k) => {
@@ -242,14 +321,14 @@ impl LightSet {
                 (pdf, self.mesh_base[mesh as usize] + tri)
             }
         };
-        if pdf > 0.0 && pdf.is_finite() { pdf * self.choice(entry) } else { 0.0 }
+        if pdf > 0.0 && pdf.is_finite() { pdf * self.choice(entry, p, n) } else { 0.0 }
     }
 
     /// The density with which [`LightSet::sample`] from `p` (normal `n`) would have produced
     /// the direction `wi` that escaped into the environment.
-    pub fn pdf_environment(&self, _p: Vec3, _n: Vec3, wi: Vec3) -> f32 {
+    pub fn pdf_environment(&self, p: Vec3, n: Vec3, wi: Vec3) -> f32 {
         match (self.environment.as_ref(), self.environment_entry) {
-            (Some(env), Some(k)) => env.pdf(wi) * self.choice(k),
+            (Some(env), Some(k)) => env.pdf(wi) * self.choice(k, p, n),
             _ => 0.0,
         }
     }
@@ -257,6 +336,48 @@ impl LightSet {
     /// The radiance of the environment along the escaping direction `wi` (0 without one).
     pub fn environment(&self, wi: Vec3) -> Vec3 {
         self.environment.as_ref().map_or(Vec3::ZERO, |e| e.radiance(wi))
+    }
+}
+
+/// What the light tree knows of entry `e` of power `phi`: its bounds, or that it is infinitely
+/// far away.
+fn extent(e: &Entry, phi: f32, delta: &[Light], area: &[AreaLight], meshes: &[MeshEmitter]) -> LightExtent {
+    match *e {
+        Entry::Delta(i) => match delta[i as usize] {
+            Light::Point { position, .. } => LightExtent::Bounded(LightBounds::point(position, phi)),
+            Light::Directional { .. } => LightExtent::Infinite(phi),
+        },
+        Entry::Environment => LightExtent::Infinite(phi),
+        Entry::Area(i) => {
+            let l = &area[i as usize];
+            let (bounds, w, cos_o) = match l.shape {
+                Shape::Quad { corner, edge1, edge2 } => (
+                    Aabb::from_points([corner, corner + edge1, corner + edge2, corner + edge1 + edge2]),
+                    edge1.cross(edge2),
+                    1.0,
+                ),
+                Shape::Disk { center, normal, radius } => {
+                    let n = normal.normalize();
+                    let half = radius * (Vec3::ONE - n * n).max(Vec3::ZERO).powf(0.5);
+                    (Aabb::new(center - half, center + half), n, 1.0)
+                }
+                Shape::Sphere { center, radius } => {
+                    (Aabb::new(center - Vec3::splat(radius), center + Vec3::splat(radius)), Vec3::Z, -1.0)
+                }
+            };
+            LightExtent::Bounded(LightBounds::diffuse(bounds, w, phi, cos_o, l.two_sided))
+        }
+        Entry::Triangle { mesh, tri } => {
+            let [a, b, c] = meshes[mesh as usize].triangle(tri as usize);
+            let bounds = Aabb::from_points([a, b, c].map(|p| p.as_vec3()));
+            LightExtent::Bounded(LightBounds::diffuse(
+                bounds,
+                (b - a).cross(c - a).normalize().as_vec3(),
+                phi,
+                1.0,
+                true,
+            ))
+        }
     }
 }
 
@@ -318,7 +439,7 @@ mod tests {
                 samples: 1,
             },
         ];
-        let lights = LightSet::new(&[], &area, Vec::new(), None, 1.0);
+        let lights = LightSet::new(&[], &area, Vec::new(), None, 1.0, LightSampler::Power);
         assert_eq!(lights.len(), 2);
         // Chosen by power: π·L·4πr² for the sphere, 2π·L·A for the two-sided quad.
         let (sphere_power, quad_power) = (4.0 * PI * PI, 2.0 * PI * 4.0);
@@ -346,7 +467,7 @@ mod tests {
 
     /// One light of every kind: a point and a directional light, a quad, a disk and a sphere,
     /// an emissive mesh of three triangles (one not emitting) and an environment map.
-    fn every_kind() -> LightSet {
+    fn every_kind(sampler: LightSampler) -> LightSet {
         let delta = [
             Light::Point { position: Vec3::new(0.0, 3.0, 0.0), intensity: Vec3::splat(5.0) },
             Light::Directional { direction: Vec3::new(1.0, -1.0, 0.0), irradiance: Vec3::splat(2.0) },
@@ -375,12 +496,18 @@ mod tests {
         let texels = (0..w * h).map(|k| Vec3::splat(0.1 + (k % 7) as f32 * (k / w) as f32)).collect();
         let env =
             Environment { rotation_deg: 20.0, ..Environment::map(Image::from_texels("sky", w, h, texels).unwrap()) };
-        LightSet::new(&delta, &area, vec![mesh], Some(env), 4.0)
+        LightSet::new(&delta, &area, vec![mesh], Some(env), 4.0, sampler)
     }
 
     #[test]
     fn pdf_hit_is_the_choice_times_the_density_sample_reported() {
-        let lights = every_kind();
+        for sampler in [LightSampler::Power, LightSampler::Tree] {
+            pdf_hit_matches(sampler);
+        }
+    }
+
+    fn pdf_hit_matches(sampler: LightSampler) {
+        let lights = every_kind(sampler);
         assert_eq!(lights.len(), 2 + 3 + 2 + 1);
         let p = Vec3::new(0.1, 0.2, -0.3);
         let n = 64;
@@ -390,7 +517,7 @@ mod tests {
                 for j in 0..n {
                     let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
                     let Some(s) = lights.sample_entry(k, p, u) else { continue };
-                    let want = lights.choice(k) * s.pdf;
+                    let want = lights.choice(k, p, Vec3::Y) * s.pdf;
                     let y = p + s.wi * s.distance;
                     let got = match *entry {
                         Entry::Delta(_) => {
@@ -433,10 +560,17 @@ mod tests {
             ),
             0.0
         );
-        let total: f32 = (0..lights.len()).map(|k| lights.choice(k)).sum();
-        assert!((total - 1.0).abs() < 1e-6);
-        let point = lights.choice(0) as f64 / (4.0 * PI * 5.0);
-        let env = lights.choice(7) as f64
+        let total: f32 = (0..lights.len()).map(|k| lights.choice(k, p, Vec3::Y)).sum();
+        assert!((total - 1.0).abs() < 1e-5, "{sampler:?}: Σ choice = {total}");
+        if sampler == LightSampler::Tree {
+            // pbrt-v4's rule: the two infinite lights (directional, environment) and the tree a
+            // third each.
+            assert_eq!(lights.choice(1, p, Vec3::Y), 1.0 / 3.0);
+            assert_eq!(lights.choice(7, p, Vec3::Y), 1.0 / 3.0);
+            return;
+        }
+        let point = lights.choice(0, p, Vec3::Y) as f64 / (4.0 * PI * 5.0);
+        let env = lights.choice(7, p, Vec3::Y) as f64
             / (PI * PI * 16.0 * luminance(lights.environment.as_ref().unwrap().mean_radiance()) as f64);
         assert!((point - env).abs() < 1e-5 * point, "choice per watt: point {point}, environment {env}");
     }
@@ -444,16 +578,17 @@ mod tests {
     #[test]
     fn the_choice_is_drawn_by_power() {
         // The share of u_select choosing each light is its probability.
-        let lights = every_kind();
+        let lights = every_kind(LightSampler::Power);
+        let Selection::Power(selection) = &lights.selection else { unreachable!() };
         let n = 100_000;
         let mut counts = vec![0usize; lights.len()];
         for i in 0..n {
-            let (k, p, _) = lights.selection.as_ref().unwrap().sample_discrete((i as f32 + 0.5) / n as f32);
-            assert_eq!(p, lights.choice(k));
+            let (k, p, _) = selection.sample_discrete((i as f32 + 0.5) / n as f32);
+            assert_eq!(p, lights.choice(k, Vec3::ZERO, Vec3::Y));
             counts[k] += 1;
         }
         for (k, c) in counts.iter().enumerate() {
-            assert!((*c as f32 / n as f32 - lights.choice(k)).abs() < 1e-4, "light {k}");
+            assert!((*c as f32 / n as f32 - lights.choice(k, Vec3::ZERO, Vec3::Y)).abs() < 1e-4, "light {k}");
         }
     }
 }

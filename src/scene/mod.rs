@@ -162,6 +162,9 @@ pub struct RenderSpec {
     /// Adaptive sampling (`[render] adaptive_threshold`, `adaptive_min_samples`;
     /// [`crate::integrator::adaptive`]); `None`: every pixel takes `image.spp` samples.
     pub adaptive: Option<AdaptiveSpec>,
+    /// How the path tracer chooses a light per shading point (`[render] light_sampler`,
+    /// [`crate::light::set`]).
+    pub light_sampler: crate::light::set::LightSampler,
 }
 
 /// Adaptive sampling as the user sets it, Cycles' two settings: the noise threshold and the
@@ -201,6 +204,9 @@ impl std::fmt::Debug for RenderSpec {
         d.field("integrator", &self.integrator).field("clamp", &self.clamp);
         if let Some(a) = &self.adaptive {
             d.field("adaptive", a);
+        }
+        if self.light_sampler != Default::default() {
+            d.field("light_sampler", &self.light_sampler);
         }
         d.finish()
     }

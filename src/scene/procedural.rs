@@ -1,6 +1,7 @@
 //! Geometry strahl makes itself: icospheres, random spheres, random triangle soups, the
-//! random rays tests and benchmarks trace through them, and a small Whitted scene for
-//! renderer tests and benchmarks. Deterministic for a given seed.
+//! random rays tests and benchmarks trace through them, a small Whitted scene for
+//! renderer tests and benchmarks, and a room lit by a ceiling of many small emitters (the
+//! light tree's test and benchmark). Deterministic for a given seed.
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -227,6 +228,106 @@ pub fn whitted_showcase(width: u32, height: u32, spp: u32) -> Scene {
         spheres,
         planes: vec![Plane::through(Vec3::ZERO, Vec3::Y, 0)],
         render: RenderSpec { integrator: IntegratorKind::Whitted, ..Default::default() },
+        ..Default::default()
+    }
+}
+
+/// The emitting materials of [`light_panel_room`]: colours × strengths.
+const PANEL_COLOURS: [[f32; 3]; 4] = [[1.0, 0.85, 0.6], [0.6, 0.8, 1.0], [1.0, 0.4, 0.3], [0.5, 1.0, 0.5]];
+const PANEL_STRENGTHS: [f32; 4] = [1.0, 4.0, 16.0, 64.0];
+
+/// A room of `side × side` m lit by its ceiling: an `n × n` grid of small emissive quads (two
+/// triangles each, so `2n²` emitting triangles) 2.5 m above a grey floor, each quad 40 % of
+/// its cell's width, its radiance one of 4 colours × 4 strengths (1 to 64 W/(m²·sr)) drawn
+/// at random, over eight grey icosahedra that cast shadows; seen by the path tracer looking
+/// down at the floor (no emitter in view) at `width × height`, `spp` samples, depth `max_depth`. With `n = 100` it is
+/// the 20,000-emitter scene of docs/performance.md ("Many lights").
+pub fn light_panel_room(n: u32, side: f32, width: u32, height: u32, spp: u32, max_depth: u32) -> Scene {
+    let mut rng = Pcg64Mcg::seed_from_u64(29);
+    let mut materials = vec![Material::matte("floor", Vec3::splat(0.5)), Material::matte("box", Vec3::splat(0.7))];
+    for c in PANEL_COLOURS {
+        for k in PANEL_STRENGTHS {
+            materials.push(Material {
+                name: format!("panel {c:?} × {k}"),
+                diffuse: Texture::Constant(Vec3::ZERO),
+                emission: Vec3::from(c) * k,
+                ..Default::default()
+            });
+        }
+    }
+    let half = side / 2.0;
+    let (cell, height_m) = (side / n as f32, 2.5);
+    let mut panel = Mesh { name: "ceiling panels".into(), ..Default::default() };
+    let mut per_triangle = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let c = Vec3::new(-half + (i as f32 + 0.5) * cell, height_m, -half + (j as f32 + 0.5) * cell);
+            let h = 0.2 * cell;
+            let base = panel.positions.len() as u32;
+            // Facing down: (b − a) × (c − a) = −y.
+            panel.positions.extend([
+                c + Vec3::new(-h, 0.0, -h),
+                c + Vec3::new(h, 0.0, -h),
+                c + Vec3::new(h, 0.0, h),
+                c + Vec3::new(-h, 0.0, h),
+            ]);
+            panel.indices.extend([[base, base + 2, base + 1], [base, base + 3, base + 2]]);
+            let m = 2 + rng.random_range(0..(PANEL_COLOURS.len() * PANEL_STRENGTHS.len()) as u32);
+            per_triangle.extend([m, m]);
+        }
+    }
+    panel.triangle_materials = Some(per_triangle);
+    let quad = |name: &str, corners: [Vec3; 4], material: u32| Mesh {
+        name: name.into(),
+        positions: corners.to_vec(),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+        ..Default::default()
+    };
+    let floor = quad(
+        "floor",
+        [
+            Vec3::new(-half, 0.0, -half),
+            Vec3::new(-half, 0.0, half),
+            Vec3::new(half, 0.0, half),
+            Vec3::new(half, 0.0, -half),
+        ],
+        0,
+    );
+    let mut meshes = vec![panel, floor];
+    for k in 0..8 {
+        let a = k as f32 / 8.0 * std::f32::consts::TAU;
+        let c = Vec3::new(0.3 * side * a.cos(), 0.0, 0.3 * side * a.sin());
+        let s = 0.04 * side;
+        let mut b = icosphere(0);
+        b.name = format!("icosahedron {k}");
+        b.material = 1;
+        for p in &mut b.positions {
+            *p = c + Vec3::new(s * p.x, s * (p.y + 1.0) * 1.5, s * p.z);
+        }
+        meshes.push(b);
+    }
+    Scene {
+        camera: CameraSpec {
+            eye: Vec3::new(-0.2 * side, 2.0, 0.2 * side),
+            target: Vec3::new(-0.12 * side, 0.0, 0.12 * side),
+            up: Vec3::Y,
+            fov_deg: 40.0,
+            lens: Default::default(),
+        },
+        image: ImageSpec {
+            width,
+            height,
+            spp,
+            max_depth,
+            background: Vec3::ZERO,
+            ambient: Vec3::ZERO,
+            mesh_lights: true,
+            mesh_light_samples: 1,
+        },
+        materials,
+        meshes,
+        render: RenderSpec { integrator: IntegratorKind::Path, ..Default::default() },
         ..Default::default()
     }
 }

@@ -258,8 +258,9 @@ struct SceneFile {
 }
 
 /// `[render]`: the integrator (`"path"`, the default, or `"whitted"`), the path tracer's
-/// `clamp` of indirect light, and adaptive sampling (`adaptive_threshold`, 0 or absent: off;
-/// `adaptive_min_samples`, 0 or absent: automatic).
+/// `clamp` of indirect light, adaptive sampling (`adaptive_threshold`, 0 or absent: off;
+/// `adaptive_min_samples`, 0 or absent: automatic) and its `light_sampler` (`"tree"`, the
+/// default, or `"power"`).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RenderFile {
@@ -267,6 +268,7 @@ struct RenderFile {
     clamp: Option<Spanned<f64>>,
     adaptive_threshold: Option<Spanned<f64>>,
     adaptive_min_samples: Option<Spanned<u32>>,
+    light_sampler: Option<Spanned<String>>,
 }
 
 impl RenderFile {
@@ -274,6 +276,10 @@ impl RenderFile {
         let mut spec = RenderSpec::default();
         if let Some(i) = &self.integrator {
             spec.integrator = IntegratorKind::parse(i.get_ref()).map_err(|m| at(i.span(), format!("render: {m}")))?;
+        }
+        if let Some(l) = &self.light_sampler {
+            spec.light_sampler = crate::light::set::LightSampler::parse(l.get_ref())
+                .map_err(|m| at(l.span(), format!("render: {m}")))?;
         }
         if let Some(c) = &self.clamp {
             spec.clamp = Some(*c.get_ref() as f32);
