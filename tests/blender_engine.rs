@@ -19,6 +19,8 @@
 //! - strahl's error reaches Blender as one report line.
 //! - A view layer of another name gets the passes; a camera named like options and shell
 //!   commands renders the same image and runs nothing.
+//! - The farm button (`bpy.ops.strahl.write_farm_job`) writes a Slurm job per frame whose
+//!   merged frames, run through tests/slurm_stub.py, are the F12 renders bit for bit.
 //!
 //! Skips, saying so, when Blender is not installed; `STRAHL_REQUIRE_BLENDER=1` makes that a
 //! failure.
@@ -431,4 +433,91 @@ fn hostile_names_reach_strahl_as_data() {
     for file in ["pwned", "pwned2"] {
         assert!(!room.dir.path(file).exists(), "a shell ran the camera's name");
     }
+}
+
+/// Every file named PWNED under `dir` (what a payload that ran would leave).
+fn pwned(dir: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if entry.file_name() == "PWNED" {
+            found.push(path.clone());
+        }
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            found.extend(pwned(&path));
+        }
+    }
+    found
+}
+
+/// The farm button, headless: `bpy.ops.strahl.write_farm_job` on frames 1-2 writes one
+/// `strahl farm slurm` job per frame into a folder named like options and shell commands (the
+/// scene too), submitted to tests/slurm_stub.py (a model of sbatch that runs the tasks and the
+/// merge at once); each merged frame's passes equal the add-on's F12 render of that frame bit
+/// for bit, and nothing the names hold ran.
+#[test]
+fn the_farm_button_writes_jobs_whose_frames_are_the_f12_renders() {
+    let Some(room) = room() else { return };
+    let Some(python) = ["/usr/bin/python3", "python3"].into_iter().find(|p| Command::new(p).arg("-V").output().is_ok())
+    else {
+        common::skip("python3 (for tests/slurm_stub.py) is not installed; the farm button is not tested");
+        return;
+    };
+    let f12 = render(room, "farm-f12", None, &["-s", "1", "-e", "2", "-a"]);
+
+    let base = room.dir.path("farm");
+    let bin = base.join("bin");
+    let state = base.join("state");
+    std::fs::create_dir_all(&bin).unwrap();
+    std::fs::create_dir_all(&state).unwrap();
+    let stub = repo("tests/slurm_stub.py");
+    let sbatch = bin.join("sbatch");
+    std::fs::write(&sbatch, format!("#!/bin/sh\nexec {python} -S '{}' \"$@\"\n", stub.display())).unwrap();
+    std::fs::set_permissions(&sbatch, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+    let hostile = "-farm $(touch PWNED) `touch PWNED`; touch PWNED; 'q' \"d\" --spp=1";
+    let folder = base.join(hostile);
+    let strahl_dir = Path::new(env!("CARGO_BIN_EXE_strahl")).parent().unwrap().to_path_buf();
+    let path = std::env::join_paths(
+        [bin, strahl_dir].into_iter().chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
+    )
+    .unwrap();
+    let expr = "import bpy, os; s = bpy.context.scene; s.name = os.environ['FARM_NAME']; \
+                s.frame_start, s.frame_end = 1, 2; s.strahl.farm_tiles = 3; s.strahl.farm_submit = True; \
+                print('FARM', bpy.ops.strahl.write_farm_job(directory=os.environ['FARM_DIR']))";
+    let out = blender(&room.dir.0, None)
+        .arg(&room.blend)
+        .args(["--python-expr", expr])
+        .env("PATH", path)
+        .env("FARM_DIR", &folder)
+        .env("FARM_NAME", hostile)
+        .env("SBATCH_STUB_DIR", &state)
+        .env("SBATCH_STUB_RUN", "1")
+        .output()
+        .unwrap();
+    check(&out, "write_farm_job");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("FARM {'FINISHED'}"), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+
+    let submissions = std::fs::read_to_string(state.join("submissions.jsonl")).unwrap();
+    let runs: Vec<serde_json::Value> = submissions
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|s| s.get("ran").is_some())
+        .collect();
+    // Per frame 3 tiles and a merge.
+    assert_eq!(runs.len(), 8, "{runs:?}");
+    assert!(runs.iter().all(|r| r["status"] == 0), "{runs:?}");
+    for frame in [1, 2] {
+        let farm = folder.join(format!("frame_{frame:04}.exr"));
+        let (w, h, farm_channels) = read_exr(&farm);
+        assert_eq!((w, h), (WIDTH, HEIGHT));
+        let (_, _, f12_channels) = read_exr(&f12.join(format!("frame_{frame:04}.exr")));
+        let (got, want) = (view_layer(&farm_channels), view_layer(&f12_channels));
+        assert_eq!(got.len(), want.len(), "frame {frame}: the passes differ");
+        for ((name, a), (name_f12, b)) in got.iter().zip(&want) {
+            assert_eq!(name, name_f12);
+            assert_eq!(bits(a), bits(b), "frame {frame}, {name}: the farm's frame differs from F12's");
+        }
+    }
+    assert!(pwned(&room.dir.0).is_empty(), "a name ran as a command: {:?}", pwned(&room.dir.0));
 }

@@ -95,24 +95,34 @@ def border_region(render, width, height):
 def strahl_arguments(binary, gltf, camera, exr, scene, view_layer, width, height, region):
     """strahl's command line for the frame: a list, each value its own argument."""
     settings = scene.strahl
-    args = [binary, "render", gltf, "-o", exr, "--camera", str(camera)]
-    args += ["--width", str(width), "--height", str(height)]
-    args += ["--integrator", settings.integrator, "--spp", str(settings.samples), "--depth", str(settings.max_depth)]
-    args += ["--backend", settings.backend]
-    if settings.integrator == "path" and settings.use_adaptive_sampling:
-        args += ["--adaptive-threshold", repr(float(settings.adaptive_threshold))]
+    args = [binary, "render", gltf, "-o", exr]
+    args += render_options(camera, scene, view_layer, width, height)
     # strahl denoises whole frames only (a border render is a region).
     if settings.denoise and region is None:
         args.append("--denoise")
     if settings.threads > 0:
         args += ["--threads", str(settings.threads)]
-    args += ["--passes", ",".join(passes.requested(view_layer))]
+    if region is not None:
+        args += ["--region", "%d,%d,%d,%d" % region]
+    return args
+
+
+def render_options(camera, scene, view_layer, width, height, extra_passes=()):
+    """The `strahl render` options of the panel's and the view layer's settings that a frame
+    and each of its farm tiles share (no output, threads, region or denoising)."""
+    settings = scene.strahl
+    args = ["--camera", str(camera), "--width", str(width), "--height", str(height)]
+    args += ["--integrator", settings.integrator, "--spp", str(settings.samples), "--depth", str(settings.max_depth)]
+    args += ["--backend", settings.backend]
+    if settings.integrator == "path" and settings.use_adaptive_sampling:
+        args += ["--adaptive-threshold", repr(float(settings.adaptive_threshold))]
+    names = passes.requested(view_layer)
+    names += [p for p in extra_passes if p not in names]
+    args += ["--passes", ",".join(names)]
     if view_layer.use_pass_cryptomatte_object or view_layer.use_pass_cryptomatte_material:
         args += ["--cryptomatte-levels", str(passes.crypto_levels(view_layer))]
     if scene.render.film_transparent:
         args.append("--transparent")
-    if region is not None:
-        args += ["--region", "%d,%d,%d,%d" % region]
     return args
 
 
