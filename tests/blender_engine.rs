@@ -17,7 +17,7 @@
 //! - Cancelling (SIGINT to Blender, its Ctrl-C) leaves no strahl process: the add-on prints
 //!   strahl's PID, which must be gone once Blender has exited.
 //! - strahl's error reaches Blender as one report line.
-//! - A view layer of another name gets the passes; a camera named like options and shell
+//! - A view layer of another name (dotted) gets the passes; a camera named like options and shell
 //!   commands renders the same image and runs nothing.
 //! - The farm button (`bpy.ops.strahl.write_farm_job`) writes a Slurm job per frame whose
 //!   merged frames, run through tests/slurm_stub.py, are the F12 renders bit for bit.
@@ -402,18 +402,20 @@ fn strahls_error_is_one_report_line() {
     assert!(!room.dir.path("failed/frame_0001.exr").exists() || out.status.success());
 }
 
+/// A view layer named with a dot, a space and a leading '-': strahl names the channels after it
+/// (`--layer-name`), and Blender's reader, which splits a channel name at its last two dots,
+/// loads every pass.
 #[test]
 fn a_view_layer_of_another_name_gets_the_passes() {
     let Some(room) = room() else { return };
-    // strahl names its channels `ViewLayer.*`; the add-on renames them for this layer.
-    let expr = "import bpy; bpy.context.scene.view_layers[0].name = 'Beauty pass'";
+    let expr = "import bpy; bpy.context.scene.view_layers[0].name = '-Beauty pass.v2'";
     let out = render(room, "renamed", Some(expr), &["-f", "1"]);
     let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
     let (_, _, reference) = read_exr(&room.reference);
-    let got: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("Beauty pass.")).collect();
+    let got: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("-Beauty pass.v2.")).collect();
     assert_eq!(got.len(), view_layer(&reference).len(), "every pass, under the layer's name");
     for (name, values) in got {
-        let want = channel(&reference, &name.replacen("Beauty pass.", "ViewLayer.", 1));
+        let want = channel(&reference, &name.replacen("-Beauty pass.v2.", "ViewLayer.", 1));
         assert_eq!(bits(values), bits(want), "{name}");
     }
 }

@@ -200,6 +200,13 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     }
     strahl::integrator::check_render(scene_data).map_err(|e| anyhow::anyhow!("{}: {e}", scene.display()))?;
     check_denoise_passes(a, scene, scene_data.output.passes)?;
+    if let Some(name) = m.get_one::<String>("layer_name") {
+        strahl::output::layer_name::check(name).map_err(|e| anyhow::anyhow!("-- {e}"))?;
+    }
+    if a.denoise {
+        super::render::check_denoise_layer(m.get_one::<String>("layer_name").map(String::as_str))
+            .map_err(|e| anyhow::anyhow!("-- {e}"))?;
+    }
     if let Some(&ev) = m.get_one::<f32>("exposure") {
         if !ev.is_finite() {
             bail!("-- --exposure {ev} is not a finite number of stops");

@@ -120,10 +120,21 @@ fn passes_with_denoising(asked: Option<Vec<String>>, scene: PassSet) -> Vec<Stri
     names
 }
 
+/// `--denoise` reads Blender's channels under `ViewLayer` only (`strahl denoise`).
+pub(super) fn check_denoise_layer(layer_name: Option<&str>) -> anyhow::Result<()> {
+    match layer_name {
+        Some(name) if name != strahl::output::exr::VIEW_LAYER => bail!(
+            "--layer-name {name:?} with --denoise: the denoiser reads the layer ViewLayer only; leave one of them out"
+        ),
+        _ => Ok(()),
+    }
+}
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let output = args.output.into_output();
     output.check()?;
     if args.denoise {
+        check_denoise_layer(output.layer_name.as_deref())?;
         strahl::output::denoise::check_available()?;
     }
     let exr_path = output.exr.clone();
