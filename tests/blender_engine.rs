@@ -523,3 +523,35 @@ fn the_farm_button_writes_jobs_whose_frames_are_the_f12_renders() {
     }
     assert!(pwned(&room.dir.0).is_empty(), "a name ran as a command: {:?}", pwned(&room.dir.0));
 }
+
+/// Blender's progress bar follows strahl's progress lines, which the add-on asks for every
+/// 0.5 s (`--progress-interval`): the values the add-on gives `update_progress` (through its
+/// `set_progress`, which the test's script wraps to record them) rise from below 1 to 1.0 and never fall.
+#[test]
+fn the_progress_bar_moves_and_ends_at_one() {
+    let Some(room) = room() else { return };
+    // 64 samples on one thread: several seconds, several progress lines.
+    let expr = "import bpy, strahl_engine.engine as e; bpy.context.scene.strahl.samples = 64\n\
+                def record(self, value, set_progress=e.StrahlRenderEngine.set_progress):\n    \
+                    print('PROGRESS %r' % value, flush=True)\n    set_progress(self, value)\n\
+                e.StrahlRenderEngine.set_progress = record";
+    let out_dir = room.dir.path("progress");
+    let out = blender(&room.dir.0, None)
+        .arg(&room.blend)
+        .args(["-E", "STRAHL", "--python-expr", expr, "-o"])
+        .arg(out_dir.join("frame_####"))
+        .args(["-f", "1"])
+        .output()
+        .unwrap();
+    check(&out, "progress");
+    let values: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.strip_prefix("PROGRESS "))
+        .map(|v| v.trim().parse().unwrap())
+        .collect();
+    assert!(values.windows(2).all(|w| w[0] <= w[1]), "the bar went back: {values:?}");
+    assert_eq!(values.last(), Some(&1.0), "{values:?}");
+    let between = values.iter().filter(|&&v| v > 0.0 && v < 1.0).count();
+    assert!(between >= 2, "only {between} progress values before the end: {values:?}");
+    println!("update_progress values: {values:?}");
+}

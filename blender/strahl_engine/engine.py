@@ -5,7 +5,7 @@
 in a temporary folder that is always removed. strahl runs as an argument list, never through
 a shell (object, file and camera names from a .blend are hostile input), with the settings of
 the Render panel; its stderr drives the progress bar (`rendering: 42% after 12.0 s, eta 16.5
-s`, one line every few seconds, docs/rendering.md) and its first `error: …` line becomes the
+s`, one line every half second, `--progress-interval 0.5`) and its first `error: …` line becomes the
 render's one error report. When Blender asks to stop (Esc, Ctrl-C in the background)
 strahl gets SIGTERM and is waited for, so no strahl process outlives the render.
 
@@ -36,6 +36,8 @@ from . import export, passes
 
 PROGRESS = re.compile(r"^rendering: (\d+(?:\.\d+)?)% after ([0-9.]+) s, eta ([0-9.a-zA-Z]+) s")
 EXR_NAME = "frame.exr"
+# Seconds between strahl's progress lines (its --progress-interval).
+PROGRESS_INTERVAL = 0.5
 # Seconds strahl has after SIGTERM (it saves its checkpoint) before it is killed.
 TERMINATE_GRACE = 30.0
 # The strahl binaries that answered `--version`, by path.
@@ -91,6 +93,8 @@ def strahl_arguments(binary, gltf, camera, exr, scene, view_layer, width, height
     settings = scene.strahl
     args = [binary, "render", gltf, "-o", exr]
     args += render_options(camera, scene, view_layer, width, height)
+    # A progress line every PROGRESS_INTERVAL seconds moves Blender's bar (strahl's default: 5 s).
+    args += ["--progress-interval", repr(PROGRESS_INTERVAL)]
     # strahl denoises whole frames only (a border render is a region).
     if settings.denoise and region is None:
         args.append("--denoise")
@@ -234,7 +238,7 @@ class StrahlRenderEngine(bpy.types.RenderEngine):
                     continue
                 m = PROGRESS.match(line)
                 if m:
-                    self.update_progress(float(m.group(1)) / 100.0)
+                    self.set_progress(float(m.group(1)) / 100.0)
                     self.update_stats("", "strahl: %s%%, eta %s s" % (m.group(1), m.group(3)))
                     continue
                 print("strahl: %s" % line)
@@ -249,8 +253,12 @@ class StrahlRenderEngine(bpy.types.RenderEngine):
             t.join(timeout=5)
         if proc.returncode != 0:
             raise StrahlError(error or last or "strahl exited with status %d" % proc.returncode)
-        self.update_progress(1.0)
+        self.set_progress(1.0)
         return True
+
+    def set_progress(self, fraction):
+        """Moves Blender's progress bar (every value the bar gets passes here)."""
+        self.update_progress(fraction)
 
     @staticmethod
     def _stop(proc):

@@ -212,6 +212,9 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
             bail!("-- --exposure {ev} is not a finite number of stops");
         }
     }
+    if let Some(&every) = m.get_one::<f64>("progress_interval") {
+        super::progress::interval(every).map_err(|e| anyhow::anyhow!("-- {e}"))?;
+    }
     if let Some(&every) = m.get_one::<f64>("checkpoint_every") {
         strahl::job::checkpoint_interval(every).map_err(|e| anyhow::anyhow!("-- {e}"))?;
     }

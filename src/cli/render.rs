@@ -104,6 +104,11 @@ pub struct RenderArgs {
     /// denoise the merged frame (`strahl denoise`), or tiles show seams.
     #[arg(long, conflicts_with_all = ["region", "tile"])]
     denoise: bool,
+    /// Seconds between two progress lines when stderr is not a terminal (a log, a program
+    /// following the render, such as the Blender add-on, which asks for 0.5); 0: a line per
+    /// finished tile.
+    #[arg(long, value_name = "SECONDS", default_value_t = super::progress::LOG_INTERVAL_SECONDS, allow_negative_numbers = true)]
+    progress_interval: f64,
 }
 
 /// The passes `--denoise` needs, added to those asked for.
@@ -131,6 +136,7 @@ pub(super) fn check_denoise_layer(layer_name: Option<&str>) -> anyhow::Result<()
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let progress_every = super::progress::interval(args.progress_interval)?;
     let output = args.output.into_output();
     output.check()?;
     if args.denoise {
@@ -178,7 +184,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         println!("{line}");
         return Ok(());
     }
-    let bar = Progress::new(job.region.pixel_count());
+    let bar = Progress::new(job.region.pixel_count(), progress_every);
     let observer = Observer { progress: &|pixels| bar.inc(pixels), note: &|line| eprintln!("{line}") };
     let rendered = job.render(&observer);
     bar.finish();
