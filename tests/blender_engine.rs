@@ -19,6 +19,8 @@
 //! - strahl's error reaches Blender as one report line.
 //! - A view layer of another name (dotted) gets the passes; a camera named like options and shell
 //!   commands renders the same image and runs nothing.
+//! - Film > Transparent gives alpha 0 on the background, strahl's `--transparent` render; two
+//!   view layers each get their own passes; the progress bar rises to 1.0.
 //! - The farm button (`bpy.ops.strahl.write_farm_job`) writes a Slurm job per frame whose
 //!   merged frames, run through tests/slurm_stub.py, are the F12 renders bit for bit.
 //!
@@ -554,4 +556,89 @@ fn the_progress_bar_moves_and_ends_at_one() {
     let between = values.iter().filter(|&&v| v > 0.0 && v < 1.0).count();
     assert!(between >= 2, "only {between} progress values before the end: {values:?}");
     println!("update_progress values: {values:?}");
+}
+
+/// strahl's own render of `gltf` with the room's settings, `passes` in place of the room's and
+/// `extra` options; its channels.
+fn strahl_own(room: &Room, gltf: &Path, name: &str, passes: Option<&str>, extra: &[&str]) -> Vec<(String, Vec<f32>)> {
+    let exr = room.dir.path(name);
+    let mut args = vec!["render".to_string(), gltf.display().to_string(), "-o".into(), exr.display().to_string()];
+    let mut settings = room_settings(&room.camera);
+    if let Some(p) = passes {
+        let at = settings.iter().position(|a| a == "--passes").unwrap();
+        settings.truncate(at);
+        settings.extend(["--passes".to_string(), p.to_string()]);
+    }
+    args.extend(settings);
+    args.extend(extra.iter().map(|s| s.to_string()));
+    check(&strahl(&args.iter().map(String::as_str).collect::<Vec<_>>()), name);
+    read_exr(&exr).2
+}
+
+/// Film > Transparent: with the back wall and the ceiling hidden, the rays that leave the room
+/// give alpha 0 in the render result, and every pass is strahl's own `--transparent` render of
+/// the same export (made by the test's script) bit for bit.
+#[test]
+fn film_transparency_gives_alpha_zero_on_the_background() {
+    let Some(room) = room() else { return };
+    let export = room.dir.path("transparent-export");
+    let expr = format!(
+        "import bpy, os, strahl_engine.export as x; s = bpy.context.scene; s.render.film_transparent = True; \
+         [setattr(bpy.data.objects[n], 'hide_render', True) for n in ('back', 'ceiling')]; os.makedirs({dir:?}); \
+         x.export_frame(s, bpy.context.view_layer, bpy.context.evaluated_depsgraph_get(), {dir:?})",
+        dir = export.display().to_string()
+    );
+    let out = render(room, "transparent", Some(&expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let own = strahl_own(room, &export.join("scene.gltf"), "transparent.exr", None, &["--transparent"]);
+    let (got, want) = (view_layer(&blender), view_layer(&own));
+    assert_eq!(got.len(), want.len());
+    for ((name, a), (_, b)) in got.iter().zip(&want) {
+        assert_eq!(bits(a), bits(b), "{name}: differs from strahl's --transparent render");
+    }
+    let alpha = channel(&blender, "ViewLayer.Combined.A");
+    let (clear, opaque) = (alpha.iter().filter(|&&a| a == 0.0).count(), alpha.iter().filter(|&&a| a == 1.0).count());
+    println!("alpha 0 on {clear} pixels, 1 on {opaque} of {}", alpha.len());
+    assert!(clear > 200 && opaque > 200, "alpha 0 on {clear} pixels, 1 on {opaque}");
+    let red = channel(&blender, "ViewLayer.Combined.R");
+    assert!(alpha.iter().zip(red).all(|(&a, &r)| a > 0.0 || r == 0.0), "a background pixel has colour");
+}
+
+/// Two view layers: Blender renders each through the add-on, each with its own passes (the
+/// second: Combined and Normal only) under its own name, each strahl's own render bit for bit.
+#[test]
+fn two_view_layers_each_get_their_passes() {
+    let Some(room) = room() else { return };
+    let expr = "import bpy; v = bpy.context.scene.view_layers.new('Second'); v.use_pass_z = False; \
+                v.use_pass_normal = True; v.use_pass_diffuse_color = False; v.use_pass_cryptomatte_object = False";
+    let out = render(room, "two-layers", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let (_, _, reference) = read_exr(&room.reference);
+    let first = view_layer(&blender);
+    let want = view_layer(&reference);
+    assert_eq!(first.len(), want.len(), "the first layer's passes");
+    for ((name, a), (wname, b)) in first.iter().zip(&want) {
+        assert_eq!(name, wname);
+        assert_eq!(bits(a), bits(b), "{name}");
+    }
+    let mut second: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("Second.")).cloned().collect();
+    second.sort_by(|a, b| a.0.cmp(&b.0));
+    let names: Vec<&str> = second.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "Second.Combined.A",
+            "Second.Combined.B",
+            "Second.Combined.G",
+            "Second.Combined.R",
+            "Second.Normal.X",
+            "Second.Normal.Y",
+            "Second.Normal.Z"
+        ]
+    );
+    let own = strahl_own(room, &room.dir.path("reference/scene.gltf"), "second.exr", Some("combined,normal"), &[]);
+    for (name, values) in &second {
+        let want = channel(&own, &name.replacen("Second.", "ViewLayer.", 1));
+        assert_eq!(bits(values), bits(want), "{name}");
+    }
 }
