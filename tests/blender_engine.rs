@@ -21,6 +21,8 @@
 //!   commands renders the same image and runs nothing.
 //! - Film > Transparent gives alpha 0 on the background, strahl's `--transparent` render; two
 //!   view layers each get their own passes; the progress bar rises to 1.0.
+//! - F12 in Blender's window (Xvfb, tools/blender/f12_ui.py) saves the headless render's
+//!   image bit for bit; skipped, saying so, without xvfb-run.
 //! - The farm button (`bpy.ops.strahl.write_farm_job`) writes a Slurm job per frame whose
 //!   merged frames, run through tests/slurm_stub.py, are the F12 renders bit for bit.
 //!
@@ -94,6 +96,27 @@ fn blender(dir: &Path, strahl_dir: Option<&Path>) -> Command {
         "strahl_engine",
     ]);
     cmd
+}
+
+/// [`blender`] with its window, under `xvfb-run` (the interactive UI, no `-b`); `None`, saying
+/// so, when xvfb-run is missing.
+fn blender_ui(dir: &Path) -> Option<Command> {
+    if Command::new("xvfb-run").arg("--help").output().is_err() {
+        common::skip("xvfb-run is not installed (apt-get install xvfb); F12 in Blender's window is not tested");
+        return None;
+    }
+    let background = blender(dir, None);
+    let mut cmd = Command::new("xvfb-run");
+    cmd.current_dir(dir).args(["-a", "-s", "-screen 0 800x600x24", "blender"]);
+    cmd.args(background.get_args().filter(|a| *a != "-b"));
+    for (key, value) in background.get_envs() {
+        if let Some(value) = value {
+            cmd.env(key, value);
+        }
+    }
+    // Blender's quit.blend goes to TMPDIR: the test's folder.
+    cmd.env("TMPDIR", dir);
+    Some(cmd)
 }
 
 fn check(out: &Output, what: &str) {
@@ -640,5 +663,38 @@ fn two_view_layers_each_get_their_passes() {
     for (name, values) in &second {
         let want = channel(&own, &name.replacen("Second.", "ViewLayer.", 1));
         assert_eq!(bits(values), bits(want), "{name}");
+    }
+}
+
+/// F12 in Blender's interactive UI (a window on Xvfb, not `-b`): tools/blender/f12_ui.py
+/// renders the room from a timer with `bpy.ops.render.render(write_still=True)` and quits; the
+/// saved image is the headless render's, every channel bit for bit (the passes and the
+/// compositor's output).
+#[test]
+fn f12_in_the_interactive_ui_equals_the_headless_render() {
+    let Some(room) = room() else { return };
+    let Some(mut ui) = blender_ui(&room.dir.0) else { return };
+    let saved = room.dir.path("ui/frame.exr");
+    let out = ui
+        .arg(&room.blend)
+        .arg("--python")
+        .arg(repo("tools/blender/f12_ui.py"))
+        .arg("--")
+        .arg(&saved)
+        .output()
+        .unwrap();
+    check(&out, "F12 in Blender's window");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("F12 False ['FINISHED']"), "not an interactive render:\n{stdout}");
+    assert!(!stdout.contains("Error: strahl"), "{stdout}");
+    let headless = render(room, "ui-headless", None, &["-f", "1"]);
+    let (w, h, got) = read_exr(&saved);
+    let (_, _, want) = read_exr(&headless.join("frame_0001.exr"));
+    assert_eq!((w, h), (WIDTH, HEIGHT));
+    let names = |c: &[(String, Vec<f32>)]| c.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&got), names(&want));
+    assert!(got.iter().any(|(n, _)| n.starts_with("Composite.")) && got.len() > 15, "{:?}", names(&got));
+    for ((name, a), (_, b)) in got.iter().zip(&want) {
+        assert_eq!(bits(a), bits(b), "{name}: the window's F12 differs from the headless render");
     }
 }
