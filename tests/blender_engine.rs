@@ -17,22 +17,27 @@
 //! - Cancelling (SIGINT to Blender, its Ctrl-C) leaves no strahl process: the add-on prints
 //!   strahl's PID, which must be gone once Blender has exited.
 //! - strahl's error reaches Blender as one report line.
-//! - A view layer of another name gets the passes; a camera named like options and shell
+//! - A view layer of another name (dotted) gets the passes; a camera named like options and shell
 //!   commands renders the same image and runs nothing.
+//! - Film > Transparent gives alpha 0 on the background, strahl's `--transparent` render; two
+//!   view layers each get their own passes; the progress bar rises to 1.0.
+//! - F12 in Blender's window (Xvfb, tools/blender/f12_ui.py) saves the headless render's
+//!   image bit for bit; skipped, saying so, without xvfb-run.
+//! - The farm button (`bpy.ops.strahl.write_farm_job`) writes a Slurm job per frame whose
+//!   merged frames, run through tests/slurm_stub.py, are the F12 renders bit for bit.
 //!
 //! Skips, saying so, when Blender is not installed; `STRAHL_REQUIRE_BLENDER=1` makes that a
 //! failure.
 
 mod common;
 
-use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use common::{TempDir, channel, read_exr, read_exr_image, strahl};
+use common::{TempDir, channel, read_exr, strahl};
 
 const WIDTH: usize = 64;
 const HEIGHT: usize = 48;
@@ -90,6 +95,27 @@ fn blender(dir: &Path, strahl_dir: Option<&Path>) -> Command {
         "strahl_engine",
     ]);
     cmd
+}
+
+/// [`blender`] with its window, under `xvfb-run` (the interactive UI, no `-b`); `None`, saying
+/// so, when xvfb-run is missing.
+fn blender_ui(dir: &Path) -> Option<Command> {
+    if Command::new("xvfb-run").arg("--help").output().is_err() {
+        common::skip("xvfb-run is not installed (apt-get install xvfb); F12 in Blender's window is not tested");
+        return None;
+    }
+    let background = blender(dir, None);
+    let mut cmd = Command::new("xvfb-run");
+    cmd.current_dir(dir).args(["-a", "-s", "-screen 0 800x600x24", "blender"]);
+    cmd.args(background.get_args().filter(|a| *a != "-b"));
+    for (key, value) in background.get_envs() {
+        if let Some(value) = value {
+            cmd.env(key, value);
+        }
+    }
+    // Blender's quit.blend goes to TMPDIR: the test's folder.
+    cmd.env("TMPDIR", dir);
+    Some(cmd)
 }
 
 fn check(out: &Output, what: &str) {
@@ -170,37 +196,9 @@ fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
 }
 
-/// The Cryptomatte matte of object `name` at each pixel: the summed coverage of the ranks
-/// whose id is the name's (from the reference's manifest), over `CryptoObject00`.
+/// The Cryptomatte matte of object `name` at each pixel ([`common::crypto_matte`]).
 fn matte(reference: &Path, channels: &[(String, Vec<f32>)], name: &str) -> Vec<f32> {
-    let image = read_exr_image(reference);
-    let attrs = &image.layer_data[0].attributes.other;
-    let text = |v: &exr::meta::attribute::AttributeValue| match v {
-        exr::meta::attribute::AttributeValue::Text(t) => t.to_string(),
-        other => panic!("{other:?} is not text"),
-    };
-    let manifest_key = attrs
-        .iter()
-        .find(|(k, v)| k.to_string().ends_with("/name") && text(v) == "ViewLayer.CryptoObject")
-        .map(|(k, _)| k.to_string().replace("/name", "/manifest"))
-        .expect("a CryptoObject manifest");
-    let manifest: HashMap<String, String> =
-        serde_json::from_str(&text(&attrs[&exr::meta::attribute::Text::from(manifest_key.as_str())])).unwrap();
-    let id = u32::from_str_radix(&manifest[name], 16).unwrap();
-    let c = |s: &str| channel(channels, &format!("ViewLayer.CryptoObject00.{s}")).to_vec();
-    let (r, g, b, a) = (c("r"), c("g"), c("b"), c("a"));
-    (0..r.len())
-        .map(|i| {
-            let mut m = 0.0;
-            if r[i].to_bits() == id {
-                m += g[i];
-            }
-            if b[i].to_bits() == id {
-                m += a[i];
-            }
-            m
-        })
-        .collect()
+    common::crypto_matte(reference, channels, name).unwrap_or_else(|| panic!("{name} is not in the manifest"))
 }
 
 #[test]
@@ -400,18 +398,20 @@ fn strahls_error_is_one_report_line() {
     assert!(!room.dir.path("failed/frame_0001.exr").exists() || out.status.success());
 }
 
+/// A view layer named with a dot, a space and a leading '-': strahl names the channels after it
+/// (`--layer-name`), and Blender's reader, which splits a channel name at its last two dots,
+/// loads every pass.
 #[test]
 fn a_view_layer_of_another_name_gets_the_passes() {
     let Some(room) = room() else { return };
-    // strahl names its channels `ViewLayer.*`; the add-on renames them for this layer.
-    let expr = "import bpy; bpy.context.scene.view_layers[0].name = 'Beauty pass'";
+    let expr = "import bpy; bpy.context.scene.view_layers[0].name = '-Beauty pass.v2'";
     let out = render(room, "renamed", Some(expr), &["-f", "1"]);
     let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
     let (_, _, reference) = read_exr(&room.reference);
-    let got: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("Beauty pass.")).collect();
+    let got: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("-Beauty pass.v2.")).collect();
     assert_eq!(got.len(), view_layer(&reference).len(), "every pass, under the layer's name");
     for (name, values) in got {
-        let want = channel(&reference, &name.replacen("Beauty pass.", "ViewLayer.", 1));
+        let want = channel(&reference, &name.replacen("-Beauty pass.v2.", "ViewLayer.", 1));
         assert_eq!(bits(values), bits(want), "{name}");
     }
 }
@@ -430,5 +430,242 @@ fn hostile_names_reach_strahl_as_data() {
     }
     for file in ["pwned", "pwned2"] {
         assert!(!room.dir.path(file).exists(), "a shell ran the camera's name");
+    }
+}
+
+/// Every file named PWNED under `dir` (what a payload that ran would leave).
+fn pwned(dir: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if entry.file_name() == "PWNED" {
+            found.push(path.clone());
+        }
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            found.extend(pwned(&path));
+        }
+    }
+    found
+}
+
+/// The farm button, headless: `bpy.ops.strahl.write_farm_job` on frames 1-2 writes one
+/// `strahl farm slurm` job per frame into a folder named like options and shell commands (the
+/// scene too), submitted to tests/slurm_stub.py (a model of sbatch that runs the tasks and the
+/// merge at once); each merged frame's passes equal the add-on's F12 render of that frame bit
+/// for bit, and nothing the names hold ran.
+#[test]
+fn the_farm_button_writes_jobs_whose_frames_are_the_f12_renders() {
+    let Some(room) = room() else { return };
+    let Some(python) = ["/usr/bin/python3", "python3"].into_iter().find(|p| Command::new(p).arg("-V").output().is_ok())
+    else {
+        common::skip("python3 (for tests/slurm_stub.py) is not installed; the farm button is not tested");
+        return;
+    };
+    let f12 = render(room, "farm-f12", None, &["-s", "1", "-e", "2", "-a"]);
+
+    let base = room.dir.path("farm");
+    let bin = base.join("bin");
+    let state = base.join("state");
+    std::fs::create_dir_all(&bin).unwrap();
+    std::fs::create_dir_all(&state).unwrap();
+    let stub = repo("tests/slurm_stub.py");
+    let sbatch = bin.join("sbatch");
+    std::fs::write(&sbatch, format!("#!/bin/sh\nexec {python} -S '{}' \"$@\"\n", stub.display())).unwrap();
+    std::fs::set_permissions(&sbatch, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+    let hostile = "-farm $(touch PWNED) `touch PWNED`; touch PWNED; 'q' \"d\" --spp=1";
+    let folder = base.join(hostile);
+    let strahl_dir = Path::new(env!("CARGO_BIN_EXE_strahl")).parent().unwrap().to_path_buf();
+    let path = std::env::join_paths(
+        [bin, strahl_dir].into_iter().chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
+    )
+    .unwrap();
+    let expr = "import bpy, os; s = bpy.context.scene; s.name = os.environ['FARM_NAME']; \
+                s.frame_start, s.frame_end = 1, 2; s.strahl.farm_tiles = 3; s.strahl.farm_submit = True; \
+                print('FARM', bpy.ops.strahl.write_farm_job(directory=os.environ['FARM_DIR']))";
+    let out = blender(&room.dir.0, None)
+        .arg(&room.blend)
+        .args(["--python-expr", expr])
+        .env("PATH", path)
+        .env("FARM_DIR", &folder)
+        .env("FARM_NAME", hostile)
+        .env("SBATCH_STUB_DIR", &state)
+        .env("SBATCH_STUB_RUN", "1")
+        .output()
+        .unwrap();
+    check(&out, "write_farm_job");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("FARM {'FINISHED'}"), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+
+    let submissions = std::fs::read_to_string(state.join("submissions.jsonl")).unwrap();
+    let runs: Vec<serde_json::Value> = submissions
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|s| s.get("ran").is_some())
+        .collect();
+    // Per frame 3 tiles and a merge.
+    assert_eq!(runs.len(), 8, "{runs:?}");
+    assert!(runs.iter().all(|r| r["status"] == 0), "{runs:?}");
+    for frame in [1, 2] {
+        let farm = folder.join(format!("frame_{frame:04}.exr"));
+        let (w, h, farm_channels) = read_exr(&farm);
+        assert_eq!((w, h), (WIDTH, HEIGHT));
+        let (_, _, f12_channels) = read_exr(&f12.join(format!("frame_{frame:04}.exr")));
+        let (got, want) = (view_layer(&farm_channels), view_layer(&f12_channels));
+        assert_eq!(got.len(), want.len(), "frame {frame}: the passes differ");
+        for ((name, a), (name_f12, b)) in got.iter().zip(&want) {
+            assert_eq!(name, name_f12);
+            assert_eq!(bits(a), bits(b), "frame {frame}, {name}: the farm's frame differs from F12's");
+        }
+    }
+    assert!(pwned(&room.dir.0).is_empty(), "a name ran as a command: {:?}", pwned(&room.dir.0));
+}
+
+/// Blender's progress bar follows strahl's progress lines, which the add-on asks for every
+/// 0.5 s (`--progress-interval`): the values the add-on gives `update_progress` (through its
+/// `set_progress`, which the test's script wraps to record them) rise from below 1 to 1.0 and never fall.
+#[test]
+fn the_progress_bar_moves_and_ends_at_one() {
+    let Some(room) = room() else { return };
+    // 64 samples on one thread: several seconds, several progress lines.
+    let expr = "import bpy, strahl_engine.engine as e; bpy.context.scene.strahl.samples = 64\n\
+                def record(self, value, set_progress=e.StrahlRenderEngine.set_progress):\n    \
+                    print('PROGRESS %r' % value, flush=True)\n    set_progress(self, value)\n\
+                e.StrahlRenderEngine.set_progress = record";
+    let out_dir = room.dir.path("progress");
+    let out = blender(&room.dir.0, None)
+        .arg(&room.blend)
+        .args(["-E", "STRAHL", "--python-expr", expr, "-o"])
+        .arg(out_dir.join("frame_####"))
+        .args(["-f", "1"])
+        .output()
+        .unwrap();
+    check(&out, "progress");
+    let values: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.strip_prefix("PROGRESS "))
+        .map(|v| v.trim().parse().unwrap())
+        .collect();
+    assert!(values.windows(2).all(|w| w[0] <= w[1]), "the bar went back: {values:?}");
+    assert_eq!(values.last(), Some(&1.0), "{values:?}");
+    let between = values.iter().filter(|&&v| v > 0.0 && v < 1.0).count();
+    assert!(between >= 2, "only {between} progress values before the end: {values:?}");
+    println!("update_progress values: {values:?}");
+}
+
+/// strahl's own render of `gltf` with the room's settings, `passes` in place of the room's and
+/// `extra` options; its channels.
+fn strahl_own(room: &Room, gltf: &Path, name: &str, passes: Option<&str>, extra: &[&str]) -> Vec<(String, Vec<f32>)> {
+    let exr = room.dir.path(name);
+    let mut args = vec!["render".to_string(), gltf.display().to_string(), "-o".into(), exr.display().to_string()];
+    let mut settings = room_settings(&room.camera);
+    if let Some(p) = passes {
+        let at = settings.iter().position(|a| a == "--passes").unwrap();
+        settings.truncate(at);
+        settings.extend(["--passes".to_string(), p.to_string()]);
+    }
+    args.extend(settings);
+    args.extend(extra.iter().map(|s| s.to_string()));
+    check(&strahl(&args.iter().map(String::as_str).collect::<Vec<_>>()), name);
+    read_exr(&exr).2
+}
+
+/// Film > Transparent: with the back wall and the ceiling hidden, the rays that leave the room
+/// give alpha 0 in the render result, and every pass is strahl's own `--transparent` render of
+/// the same export (made by the test's script) bit for bit.
+#[test]
+fn film_transparency_gives_alpha_zero_on_the_background() {
+    let Some(room) = room() else { return };
+    let export = room.dir.path("transparent-export");
+    let expr = format!(
+        "import bpy, os, strahl_engine.export as x; s = bpy.context.scene; s.render.film_transparent = True; \
+         [setattr(bpy.data.objects[n], 'hide_render', True) for n in ('back', 'ceiling')]; os.makedirs({dir:?}); \
+         x.export_frame(s, bpy.context.view_layer, bpy.context.evaluated_depsgraph_get(), {dir:?})",
+        dir = export.display().to_string()
+    );
+    let out = render(room, "transparent", Some(&expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let own = strahl_own(room, &export.join("scene.gltf"), "transparent.exr", None, &["--transparent"]);
+    let (got, want) = (view_layer(&blender), view_layer(&own));
+    assert_eq!(got.len(), want.len());
+    for ((name, a), (_, b)) in got.iter().zip(&want) {
+        assert_eq!(bits(a), bits(b), "{name}: differs from strahl's --transparent render");
+    }
+    let alpha = channel(&blender, "ViewLayer.Combined.A");
+    let (clear, opaque) = (alpha.iter().filter(|&&a| a == 0.0).count(), alpha.iter().filter(|&&a| a == 1.0).count());
+    println!("alpha 0 on {clear} pixels, 1 on {opaque} of {}", alpha.len());
+    assert!(clear > 200 && opaque > 200, "alpha 0 on {clear} pixels, 1 on {opaque}");
+    let red = channel(&blender, "ViewLayer.Combined.R");
+    assert!(alpha.iter().zip(red).all(|(&a, &r)| a > 0.0 || r == 0.0), "a background pixel has colour");
+}
+
+/// Two view layers: Blender renders each through the add-on, each with its own passes (the
+/// second: Combined and Normal only) under its own name, each strahl's own render bit for bit.
+#[test]
+fn two_view_layers_each_get_their_passes() {
+    let Some(room) = room() else { return };
+    let expr = "import bpy; v = bpy.context.scene.view_layers.new('Second'); v.use_pass_z = False; \
+                v.use_pass_normal = True; v.use_pass_diffuse_color = False; v.use_pass_cryptomatte_object = False";
+    let out = render(room, "two-layers", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let (_, _, reference) = read_exr(&room.reference);
+    let first = view_layer(&blender);
+    let want = view_layer(&reference);
+    assert_eq!(first.len(), want.len(), "the first layer's passes");
+    for ((name, a), (wname, b)) in first.iter().zip(&want) {
+        assert_eq!(name, wname);
+        assert_eq!(bits(a), bits(b), "{name}");
+    }
+    let mut second: Vec<_> = blender.iter().filter(|(n, _)| n.starts_with("Second.")).cloned().collect();
+    second.sort_by(|a, b| a.0.cmp(&b.0));
+    let names: Vec<&str> = second.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "Second.Combined.A",
+            "Second.Combined.B",
+            "Second.Combined.G",
+            "Second.Combined.R",
+            "Second.Normal.X",
+            "Second.Normal.Y",
+            "Second.Normal.Z"
+        ]
+    );
+    let own = strahl_own(room, &room.dir.path("reference/scene.gltf"), "second.exr", Some("combined,normal"), &[]);
+    for (name, values) in &second {
+        let want = channel(&own, &name.replacen("Second.", "ViewLayer.", 1));
+        assert_eq!(bits(values), bits(want), "{name}");
+    }
+}
+
+/// F12 in Blender's interactive UI (a window on Xvfb, not `-b`): tools/blender/f12_ui.py
+/// renders the room from a timer with `bpy.ops.render.render(write_still=True)` and quits; the
+/// saved image is the headless render's, every channel bit for bit (the passes and the
+/// compositor's output).
+#[test]
+fn f12_in_the_interactive_ui_equals_the_headless_render() {
+    let Some(room) = room() else { return };
+    let Some(mut ui) = blender_ui(&room.dir.0) else { return };
+    let saved = room.dir.path("ui/frame.exr");
+    let out = ui
+        .arg(&room.blend)
+        .arg("--python")
+        .arg(repo("tools/blender/f12_ui.py"))
+        .arg("--")
+        .arg(&saved)
+        .output()
+        .unwrap();
+    check(&out, "F12 in Blender's window");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("F12 False ['FINISHED']"), "not an interactive render:\n{stdout}");
+    assert!(!stdout.contains("Error: strahl"), "{stdout}");
+    let headless = render(room, "ui-headless", None, &["-f", "1"]);
+    let (w, h, got) = read_exr(&saved);
+    let (_, _, want) = read_exr(&headless.join("frame_0001.exr"));
+    assert_eq!((w, h), (WIDTH, HEIGHT));
+    let names = |c: &[(String, Vec<f32>)]| c.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&got), names(&want));
+    assert!(got.iter().any(|(n, _)| n.starts_with("Composite.")) && got.len() > 15, "{:?}", names(&got));
+    for ((name, a), (_, b)) in got.iter().zip(&want) {
+        assert_eq!(bits(a), bits(b), "{name}: the window's F12 differs from the headless render");
     }
 }

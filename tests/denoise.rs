@@ -337,3 +337,23 @@ fn the_png_of_a_denoised_render_shows_the_denoised_frame() {
         assert!(preview != codes("Noisy Image"), "the PNG is the noisy frame (half: {half})");
     }
 }
+
+/// A frame under another view layer (`--layer-name`, as the Blender add-on renders a renamed
+/// view layer) denoises under that layer: the same pixels as under `ViewLayer`.
+#[test]
+fn a_renamed_view_layer_is_denoised_under_its_name() {
+    if !have_oidn() {
+        return;
+    }
+    let dir = TempDir::new("denoise-layer");
+    let (plain, renamed) = (dir.path("plain.exr"), dir.path("renamed.exr"));
+    render(&plain, 24, 4, &["--denoise"]);
+    render(&renamed, 24, 4, &["--denoise", "--layer-name", "-Beauty pass.v2"]);
+    let ((_, _, a), (_, _, b)) = (read_exr(&plain), read_exr(&renamed));
+    assert_eq!(a.len(), b.len());
+    for (name, values) in &a {
+        let other = name.replacen("ViewLayer.", "-Beauty pass.v2.", 1);
+        assert_eq!(channel(&b, &other), &values[..], "{other}");
+    }
+    assert!(b.iter().any(|(n, _)| n == "-Beauty pass.v2.Noisy Image.R"));
+}

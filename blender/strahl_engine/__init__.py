@@ -3,8 +3,9 @@ evaluated scene with Blender's own glTF exporter, runs `strahl render` on it and
 EXR's passes into the render result, so the compositor's Render Layers node offers them.
 
 The add-on talks to strahl only through its command line and files: `engine` runs the
-render, `export` writes the glTF file, `passes` maps Blender's view layer passes to
-strahl's `--passes`, `ui` holds the settings, the panel and the preferences.
+render, `farm` writes the Slurm jobs of a frame range (`strahl farm slurm`), `export` writes
+the glTF file, `passes` maps Blender's view layer passes to strahl's `--passes`, `ui` holds
+the settings, the panels and the preferences.
 """
 
 bl_info = {
@@ -17,9 +18,9 @@ bl_info = {
     "category": "Render",
 }
 
-from . import engine, ui  # noqa: E402
+from . import engine, farm, ui  # noqa: E402
 
-_CLASSES = ui.CLASSES + (engine.StrahlRenderEngine,)
+_CLASSES = ui.CLASSES + (engine.StrahlRenderEngine, farm.STRAHL_OT_write_farm_job)
 
 
 def register():

@@ -5,16 +5,15 @@
 in a temporary folder that is always removed. strahl runs as an argument list, never through
 a shell (object, file and camera names from a .blend are hostile input), with the settings of
 the Render panel; its stderr drives the progress bar (`rendering: 42% after 12.0 s, eta 16.5
-s`, one line every few seconds, docs/rendering.md) and its first `error: …` line becomes the
+s`, one line every half second, `--progress-interval 0.5`) and its first `error: …` line becomes the
 render's one error report. When Blender asks to stop (Esc, Ctrl-C in the background)
 strahl gets SIGTERM and is waited for, so no strahl process outlives the render.
 
-The EXR's channels are Blender's multilayer names (`ViewLayer.Combined.R`, `ViewLayer.DiffCol.G`,
-...), so `RenderResult.load_from_file` fills every registered pass by name; its Cryptomatte
-header entries (`cryptomatte/<key>/name`, `/hash`, `/conversion`, `/manifest`) are copied
-into the result's metadata, where the compositor's Cryptomatte node finds the layers. A view
-layer not named `ViewLayer` gets the file with its channels renamed to its own name first
-(`rename_exr_layer`).
+The EXR's channels are Blender's multilayer names under the view layer's own name (strahl's
+`--layer-name`: `Beauty.Combined.R`, `Beauty.DiffCol.G`, ...), so `RenderResult.load_from_file`
+fills every registered pass by name; its Cryptomatte header entries (`cryptomatte/<key>/name`,
+`/hash`, `/conversion`, `/manifest`) are copied into the result's metadata, where the
+compositor's Cryptomatte node finds the layers.
 
 Pixels: the frame is resolution × percentage / 100 (integer division, as Blender's); a border
 render asks strahl for the border's pixels only (`--region`, rows counted from the top where
@@ -27,7 +26,6 @@ import queue
 import re
 import shutil
 import signal
-import struct
 import subprocess
 import tempfile
 import threading
@@ -38,10 +36,8 @@ from . import export, passes
 
 PROGRESS = re.compile(r"^rendering: (\d+(?:\.\d+)?)% after ([0-9.]+) s, eta ([0-9.a-zA-Z]+) s")
 EXR_NAME = "frame.exr"
-# The view layer name strahl's channels carry (`ViewLayer.Combined.R`).
-STRAHL_LAYER = "ViewLayer"
-# Scanlines per chunk of each OpenEXR compression (its code), for the offset table.
-EXR_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32}
+# Seconds between strahl's progress lines (its --progress-interval).
+PROGRESS_INTERVAL = 0.5
 # Seconds strahl has after SIGTERM (it saves its checkpoint) before it is killed.
 TERMINATE_GRACE = 30.0
 # The strahl binaries that answered `--version`, by path.
@@ -95,24 +91,39 @@ def border_region(render, width, height):
 def strahl_arguments(binary, gltf, camera, exr, scene, view_layer, width, height, region):
     """strahl's command line for the frame: a list, each value its own argument."""
     settings = scene.strahl
-    args = [binary, "render", gltf, "-o", exr, "--camera", str(camera)]
-    args += ["--width", str(width), "--height", str(height)]
-    args += ["--integrator", settings.integrator, "--spp", str(settings.samples), "--depth", str(settings.max_depth)]
-    args += ["--backend", settings.backend]
-    if settings.integrator == "path" and settings.use_adaptive_sampling:
-        args += ["--adaptive-threshold", repr(float(settings.adaptive_threshold))]
+    args = [binary, "render", gltf, "-o", exr]
+    args += render_options(camera, scene, view_layer, width, height)
+    # A progress line every PROGRESS_INTERVAL seconds moves Blender's bar (strahl's default: 5 s).
+    args += ["--progress-interval", repr(PROGRESS_INTERVAL)]
     # strahl denoises whole frames only (a border render is a region).
     if settings.denoise and region is None:
         args.append("--denoise")
     if settings.threads > 0:
         args += ["--threads", str(settings.threads)]
-    args += ["--passes", ",".join(passes.requested(view_layer))]
+    if region is not None:
+        args += ["--region", "%d,%d,%d,%d" % region]
+    return args
+
+
+def render_options(camera, scene, view_layer, width, height, extra_passes=()):
+    """The `strahl render` options of the panel's and the view layer's settings that a frame
+    and each of its farm tiles share (no output, threads, region or denoising)."""
+    settings = scene.strahl
+    args = ["--camera", str(camera), "--width", str(width), "--height", str(height)]
+    args += ["--integrator", settings.integrator, "--spp", str(settings.samples), "--depth", str(settings.max_depth)]
+    args += ["--backend", settings.backend]
+    # The header's Frame and Time, as Blender stamps them.
+    fps = max(1, round(scene.render.fps / scene.render.fps_base))
+    args += ["--frame", str(max(0, scene.frame_current)), "--fps", str(fps)]
+    if settings.integrator == "path" and settings.use_adaptive_sampling:
+        args += ["--adaptive-threshold", repr(float(settings.adaptive_threshold))]
+    names = passes.requested(view_layer)
+    names += [p for p in extra_passes if p not in names]
+    args += ["--passes", ",".join(names), "--layer-name", view_layer.name]
     if view_layer.use_pass_cryptomatte_object or view_layer.use_pass_cryptomatte_material:
         args += ["--cryptomatte-levels", str(passes.crypto_levels(view_layer))]
     if scene.render.film_transparent:
         args.append("--transparent")
-    if region is not None:
-        args += ["--region", "%d,%d,%d,%d" % region]
     return args
 
 
@@ -139,60 +150,6 @@ def exr_string_attributes(path, prefix):
             value = f.read(size)
             if kind == "string" and name.startswith(prefix):
                 out[name] = value.decode("utf-8", "replace")
-
-
-def rename_exr_layer(path, old, new):
-    """Renames the layer `old` of strahl's scanline EXR at `path` to `new` in place
-    (`old.Combined.R` → `new.Combined.R`, and the Cryptomatte layer names), so that
-    `load_from_file` finds the passes of a view layer not named `old`. The header is rebuilt
-    with the new channel names and the offset table, which counts from the file's start, is
-    moved by the header's change in length; the pixel data is not touched. Renaming keeps the
-    channels sorted (they share the prefix)."""
-    with open(path, "rb") as f:
-        data = f.read()
-    pos, header, fields = 8, bytearray(data[:8]), {}
-    while True:
-        end = data.index(b"\0", pos)
-        name = data[pos:end].decode("utf-8", "replace")
-        if not name:
-            pos = end + 1
-            break
-        kind_end = data.index(b"\0", end + 1)
-        kind = data[end + 1 : kind_end].decode("ascii", "replace")
-        size = int.from_bytes(data[kind_end + 1 : kind_end + 5], "little")
-        value = data[kind_end + 5 : kind_end + 5 + size]
-        pos = kind_end + 5 + size
-        fields[name] = value
-        if name == "channels":
-            value = _renamed_channels(value, old, new)
-        elif kind == "string" and name.startswith("cryptomatte/") and name.endswith("/name"):
-            value = _renamed(value, old, new)
-        header += name.encode("utf-8") + b"\0" + kind.encode("ascii") + b"\0"
-        header += len(value).to_bytes(4, "little") + value
-    header += b"\0"
-    x0, y0, x1, y1 = struct.unpack("<4i", fields["dataWindow"])
-    chunks = -(-(y1 - y0 + 1) // EXR_LINES_PER_CHUNK[fields["compression"][0]])
-    delta = len(header) - pos
-    offsets = struct.unpack("<%dQ" % chunks, data[pos : pos + 8 * chunks])
-    table = struct.pack("<%dQ" % chunks, *(o + delta for o in offsets))
-    with open(path, "wb") as f:
-        f.write(header + table + data[pos + 8 * chunks :])
-
-
-def _renamed(name, old, new):
-    prefix = old.encode("utf-8") + b"."
-    return new.encode("utf-8") + b"." + name[len(prefix) :] if name.startswith(prefix) else name
-
-
-def _renamed_channels(value, old, new):
-    """An OpenEXR `chlist` with each name's `old.` prefix replaced by `new.`: per channel its
-    name, 0, then 16 bytes (pixel type, linear flag, reserved, x and y sampling); a final 0."""
-    out, pos = bytearray(), 0
-    while value[pos] != 0:
-        end = value.index(b"\0", pos)
-        out += _renamed(bytes(value[pos:end]), old, new) + b"\0" + value[end + 1 : end + 17]
-        pos = end + 17
-    return bytes(out + b"\0")
 
 
 def _read_cstring(f, limit=256):
@@ -247,8 +204,6 @@ class StrahlRenderEngine(bpy.types.RenderEngine):
             x, y, w, h = 0, 0, width, height
         else:
             x, y, w, h = region[0], height - region[3], region[2] - region[0], region[3] - region[1]
-        if view_layer.name != STRAHL_LAYER:
-            rename_exr_layer(exr, STRAHL_LAYER, view_layer.name)
         result = self.begin_result(0, 0, w, h, layer=view_layer.name)
         try:
             result.load_from_file(exr)
@@ -286,7 +241,7 @@ class StrahlRenderEngine(bpy.types.RenderEngine):
                     continue
                 m = PROGRESS.match(line)
                 if m:
-                    self.update_progress(float(m.group(1)) / 100.0)
+                    self.set_progress(float(m.group(1)) / 100.0)
                     self.update_stats("", "strahl: %s%%, eta %s s" % (m.group(1), m.group(3)))
                     continue
                 print("strahl: %s" % line)
@@ -301,8 +256,12 @@ class StrahlRenderEngine(bpy.types.RenderEngine):
             t.join(timeout=5)
         if proc.returncode != 0:
             raise StrahlError(error or last or "strahl exited with status %d" % proc.returncode)
-        self.update_progress(1.0)
+        self.set_progress(1.0)
         return True
+
+    def set_progress(self, fraction):
+        """Moves Blender's progress bar (every value the bar gets passes here)."""
+        self.update_progress(fraction)
 
     @staticmethod
     def _stop(proc):

@@ -1,5 +1,6 @@
 """The settings strahl renders with and where they are edited: the scene's `strahl` settings
-(integrator, samples, max depth, threads, backend), the Render properties panel, a View Layer
+(integrator, samples, max depth, threads, backend, the farm's job folder and Slurm settings),
+the Render properties panel with its Farm subpanel, a View Layer
 panel with the passes strahl writes, and the add-on preference naming the strahl binary
 (empty: `strahl` on PATH). Blender's own panels that apply to any engine (dimensions, output,
 colour management, film) are shown for strahl too.
@@ -65,6 +66,16 @@ class StrahlSettings(bpy.types.PropertyGroup):
         ),
         default="embree",
     )
+    farm_directory: StringProperty(
+        name="Job Folder",
+        description="Where Write Farm Job puts each frame's scene, Slurm job and image (kept: the nodes read it)",
+        subtype="DIR_PATH",
+        default="",
+    )
+    farm_tiles: IntProperty(name="Tiles", description="Tiles (Slurm array tasks) per frame", default=4, min=1, max=10000)
+    farm_partition: StringProperty(name="Partition", description="Slurm partition; empty: the cluster's default", default="")
+    farm_time: StringProperty(name="Time Limit", description="Slurm time limit of each job, e.g. 30:00; empty: the partition's", default="")
+    farm_submit: BoolProperty(name="Submit", description="Submit the jobs with sbatch, not only write them", default=False)
 
 
 class RENDER_PT_strahl(bpy.types.Panel):
@@ -96,6 +107,28 @@ class RENDER_PT_strahl(bpy.types.Panel):
         layout.prop(context.scene.render, "film_transparent", text="Transparent")
 
 
+class RENDER_PT_strahl_farm(bpy.types.Panel):
+    bl_label = "Farm (Slurm)"
+    bl_parent_id = "RENDER_PT_strahl"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+    COMPAT_ENGINES = {ENGINE}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.strahl
+        for prop in ("farm_directory", "farm_tiles", "farm_partition", "farm_time", "farm_submit"):
+            layout.prop(settings, prop)
+        layout.operator("strahl.write_farm_job", icon="NETWORK_DRIVE")
+
+
 class VIEWLAYER_PT_strahl_passes(bpy.types.Panel):
     bl_label = "Passes (strahl)"
     bl_space_type = "PROPERTIES"
@@ -118,7 +151,7 @@ class VIEWLAYER_PT_strahl_passes(bpy.types.Panel):
         layout.prop(view_layer, "pass_cryptomatte_depth", text="Cryptomatte Levels")
 
 
-CLASSES = (StrahlPreferences, StrahlSettings, RENDER_PT_strahl, VIEWLAYER_PT_strahl_passes)
+CLASSES = (StrahlPreferences, StrahlSettings, RENDER_PT_strahl, RENDER_PT_strahl_farm, VIEWLAYER_PT_strahl_passes)
 
 # Blender's panels that work for any engine, by the engines they list.
 _SHARED_WITH = "BLENDER_RENDER"

@@ -202,10 +202,16 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     }
     strahl::integrator::check_render(scene_data).map_err(|e| anyhow::anyhow!("{}: {e}", scene.display()))?;
     check_denoise_passes(a, scene, scene_data.output.passes)?;
+    if let Some(name) = m.get_one::<String>("layer_name") {
+        strahl::output::layer_name::check(name).map_err(|e| anyhow::anyhow!("-- {e}"))?;
+    }
     if let Some(&ev) = m.get_one::<f32>("exposure") {
         if !ev.is_finite() {
             bail!("-- --exposure {ev} is not a finite number of stops");
         }
+    }
+    if let Some(&every) = m.get_one::<f64>("progress_interval") {
+        super::progress::interval(every).map_err(|e| anyhow::anyhow!("-- {e}"))?;
     }
     if let Some(&every) = m.get_one::<f64>("checkpoint_every") {
         strahl::job::checkpoint_interval(every).map_err(|e| anyhow::anyhow!("-- {e}"))?;

@@ -25,6 +25,11 @@ pub struct OutputArgs {
     /// Channel naming of the EXR: Blender's multilayer names, or Nuke's.
     #[arg(long, value_enum, default_value_t = LayoutArg::Blender)]
     pub exr_layout: LayoutArg,
+    /// The view layer of Blender's layout: channels are named NAME.Pass.C (Blender's
+    /// multilayer names; dots allowed, as Blender writes them; at most 63 bytes, no control
+    /// characters) [default: ViewLayer].
+    #[arg(long, value_name = "NAME", allow_hyphen_values = true)]
+    pub layer_name: Option<String>,
     /// Store colour passes and normals as half floats (depth, distance, position, indices, Cryptomatte stay float32).
     #[arg(long)]
     pub half: bool,
@@ -57,6 +62,7 @@ impl OutputArgs {
             png: self.png,
             exposure: self.exposure,
             layout: self.exr_layout.into(),
+            layer_name: self.layer_name,
             half: self.half,
             compression: self.compression,
             checkpoint_every: self.checkpoint_every,

@@ -117,6 +117,11 @@ pub struct RenderArgs {
     /// the merged frame (`strahl denoise`), or tiles show seams.
     #[arg(long, conflicts_with_all = ["region", "tile"])]
     denoise: bool,
+    /// Seconds between two progress lines when stderr is not a terminal (a log, a program
+    /// following the render, such as the Blender add-on, which asks for 0.5); 0: a line per
+    /// finished tile.
+    #[arg(long, value_name = "SECONDS", default_value_t = super::progress::LOG_INTERVAL_SECONDS, allow_negative_numbers = true)]
+    progress_interval: f64,
 }
 
 /// The passes `--denoise` needs, added to those asked for.
@@ -135,6 +140,7 @@ fn passes_with_denoising(asked: Option<Vec<String>>, scene: PassSet) -> Vec<Stri
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let progress_every = super::progress::interval(args.progress_interval)?;
     let output = args.output.into_output();
     output.check()?;
     if args.denoise {
@@ -182,7 +188,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         println!("{line}");
         return Ok(());
     }
-    let bar = Progress::new(job.region.pixel_count());
+    let bar = Progress::new(job.region.pixel_count(), progress_every);
     let observer = Observer { progress: &|pixels| bar.inc(pixels), note: &|line| eprintln!("{line}") };
     let rendered = job.render(&observer);
     bar.finish();

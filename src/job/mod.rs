@@ -79,6 +79,8 @@ pub struct Output {
     pub exposure: f32,
     /// Channel naming, sample type and compression of the EXR.
     pub layout: Layout,
+    /// The view layer name of the `blender` layout (`--layer-name`); `None`: `ViewLayer`.
+    pub layer_name: Option<String>,
     pub half: bool,
     pub compression: Compression,
     /// Seconds between two checkpoints (0: after every tile).
@@ -104,6 +106,7 @@ impl Output {
         if !self.exposure.is_finite() {
             bail!("--exposure {} is not a finite number of stops", self.exposure);
         }
+        self.check_layer_name()?;
         let checkpoint = self.checkpoint();
         if checkpoint.is_dir() {
             bail!("{}: is a directory, where the render keeps its checkpoint", checkpoint.display());
@@ -113,6 +116,17 @@ impl Output {
         // not after rendering.
         for path in std::iter::once(&self.exr).chain(&self.png) {
             drop(crate::sys::atomic::Scratch::beside(path)?);
+        }
+        Ok(())
+    }
+
+    /// `--layer-name`: a name Blender can give a view layer ([`crate::output::layer_name`]),
+    /// for the layout that has layers.
+    fn check_layer_name(&self) -> anyhow::Result<()> {
+        let Some(name) = &self.layer_name else { return Ok(()) };
+        crate::output::layer_name::check(name).map_err(anyhow::Error::msg)?;
+        if self.layout != Layout::Blender {
+            bail!("--layer-name {name:?}: names the view layer of --exr-layout blender; the other layout has none");
         }
         Ok(())
     }
@@ -400,6 +414,7 @@ impl RenderJob {
             render_seconds: 0.0,
             frame: output.frame,
             fps: output.fps,
+            layer: output.layer_name.clone(),
         };
         let mut attributes = crate::output::metadata::attributes(&self.scene, &info);
         if output.layout == Layout::Blender {
@@ -408,6 +423,7 @@ impl RenderJob {
         attributes.push((RENDER_KEY.to_string(), Attribute::Text(self.render_key(output))));
         ExrOptions {
             layout: output.layout,
+            view_layer: output.layer_name.clone(),
             half: output.half,
             compression: output.compression.for_output(&self.scene.output, output.half).0,
             attributes,

@@ -72,24 +72,40 @@ pub fn check_available() -> Result<(), DenoiseError> {
     oidn_filter::check()
 }
 
-/// The channel names of one layout: the prefix of Blender's layers (`ViewLayer.`, or none),
-/// and the beauty's own prefix (`ViewLayer.Combined.`, or none for Nuke's `R G B A`).
+/// The channel names of one layout: the prefix of Blender's layers (`ViewLayer.`, the view
+/// layer `--layer-name` gave, or none), and the beauty's own prefix (`ViewLayer.Combined.`, or
+/// none for Nuke's `R G B A`).
 struct Names {
-    layer: &'static str,
-    combined: &'static str,
-    albedo: &'static str,
-    normal: &'static str,
-    depth: &'static str,
+    layer: String,
+    combined: String,
+    albedo: String,
+    normal: String,
+    depth: String,
 }
 
-const BLENDER: Names = Names {
-    layer: "ViewLayer.",
-    combined: "ViewLayer.Combined.",
-    albedo: "ViewLayer.DiffCol.",
-    normal: "ViewLayer.Normal.",
-    depth: "ViewLayer.Depth.Z",
-};
-const NUKE: Names = Names { layer: "", combined: "", albedo: "albedo.", normal: "N.", depth: "Z" };
+impl Names {
+    /// Blender's names under the view layer of the file's `LAYER.Combined.R` channel (the
+    /// first such), else Nuke's.
+    fn of(list: &[AnyChannel<FlatSamples>]) -> Names {
+        let blender = list.iter().find_map(|c| c.name.to_string().strip_suffix("Combined.R").map(str::to_string));
+        match blender.filter(|layer| layer.ends_with('.')) {
+            Some(layer) => Names {
+                combined: format!("{layer}Combined."),
+                albedo: format!("{layer}DiffCol."),
+                normal: format!("{layer}Normal."),
+                depth: format!("{layer}Depth.Z"),
+                layer,
+            },
+            None => Names {
+                layer: String::new(),
+                combined: String::new(),
+                albedo: "albedo.".into(),
+                normal: "N.".into(),
+                depth: "Z".into(),
+            },
+        }
+    }
+}
 
 /// The beauty, albedo and normal of a frame as OIDN takes them: RGB/XYZ triples, row by row.
 pub struct Frame {
@@ -169,8 +185,8 @@ fn denoise_exr_and_beauty(path: &Path, bytes: &[u8]) -> Result<(Vec<u8>, Beauty)
         .or_else(|e| fail(path, e))?;
     let layer = &mut image.layer_data[0];
     let list = &mut layer.channel_data.list;
-    let names = if find(list, "ViewLayer.Combined.R").is_some() { &BLENDER } else { &NUKE };
-    let layer_prefix = names.layer;
+    let names = Names::of(list);
+    let layer_prefix = names.layer.as_str();
     if find(list, &format!("{layer_prefix}Noisy Image.R")).is_some() {
         return fail(path, "is denoised already (it has a `Noisy Image` layer)");
     }
@@ -189,21 +205,21 @@ fn denoise_exr_and_beauty(path: &Path, bytes: &[u8]) -> Result<(Vec<u8>, Beauty)
             })
             .collect()
     };
-    let combined = need("combined", names.combined, "RGB")?;
+    let combined = need("combined", &names.combined, "RGB")?;
     // The render's denoising features when it wrote them, else the first hit's DiffCol and Normal.
     let features = |name: &str, components: &str| -> Option<Vec<usize>> {
         components.chars().map(|c| find(list, &format!("{layer_prefix}{name}.{c}"))).collect()
     };
     let (albedo, albedo_written) = match features("Denoising Albedo", "RGB") {
         Some(a) => (a, true),
-        None => (need("albedo", names.albedo, "RGB")?, false),
+        None => (need("albedo", &names.albedo, "RGB")?, false),
     };
     let (normal, normal_written) = match features("Denoising Normal", "XYZ") {
         Some(n) => (n, true),
-        None => (need("normal", names.normal, "XYZ")?, false),
+        None => (need("normal", &names.normal, "XYZ")?, false),
     };
     let alpha = find(list, &format!("{}A", names.combined));
-    let depth = find(list, names.depth);
+    let depth = find(list, &names.depth);
 
     let frame = Frame {
         width: layer.size.width(),

@@ -197,6 +197,9 @@ pub enum Attribute {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ExrOptions {
     pub layout: Layout,
+    /// The view layer of the `blender` layout (checked by [`super::layer_name`]); `None`:
+    /// [`VIEW_LAYER`].
+    pub view_layer: Option<String>,
     /// Colour passes as half floats.
     pub half: bool,
     pub compression: Compression,
@@ -211,8 +214,20 @@ pub struct ExrOptions {
 /// The view layer of the `blender` layout.
 pub const VIEW_LAYER: &str = "ViewLayer";
 
+impl ExrOptions {
+    /// The `blender` layout's view layer name.
+    pub fn layer(&self) -> &str {
+        self.view_layer.as_deref().unwrap_or(VIEW_LAYER)
+    }
+}
+
 /// The name of component `component` of `pass` in `layout` (see the module docs).
 pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
+    layer_channel_name(layout, VIEW_LAYER, pass, component)
+}
+
+/// [`channel_name`] with the `blender` layout's view layer named `layer`.
+pub fn layer_channel_name(layout: Layout, layer: &str, pass: Pass, component: usize) -> String {
     const RGBA: [&str; 4] = ["R", "G", "B", "A"];
     const XYZ: [&str; 3] = ["X", "Y", "Z"];
     let (blender, nuke, names): (&str, &str, &[&str]) = match pass {
@@ -240,16 +255,16 @@ pub fn channel_name(layout: Layout, pass: Pass, component: usize) -> String {
         Pass::DenoisingAlbedo => ("Denoising Albedo", "Denoising Albedo", &RGBA),
         Pass::DenoisingNormal => ("Denoising Normal", "Denoising Normal", &XYZ),
         Pass::CryptoObject | Pass::CryptoMaterial => {
-            let layer = format!("{}{:02}", crypto_type(pass), component / 4);
+            let (view_layer, crypto) = (layer, format!("{}{:02}", crypto_type(pass), component / 4));
             return match layout {
-                Layout::Blender => format!("{VIEW_LAYER}.{layer}.{}", ["r", "g", "b", "a"][component % 4]),
-                Layout::Nuke => format!("{layer}.{}", RGBA[component % 4]),
+                Layout::Blender => format!("{view_layer}.{crypto}.{}", ["r", "g", "b", "a"][component % 4]),
+                Layout::Nuke => format!("{crypto}.{}", RGBA[component % 4]),
             };
         }
     };
     let channel = names[component];
     match layout {
-        Layout::Blender => format!("{VIEW_LAYER}.{blender}.{channel}"),
+        Layout::Blender => format!("{layer}.{blender}.{channel}"),
         Layout::Nuke if nuke.is_empty() => channel.to_string(),
         Layout::Nuke => format!("{nuke}.{channel}"),
     }
@@ -262,8 +277,13 @@ fn crypto_type(pass: Pass) -> &'static str {
 
 /// The Cryptomatte pass name of `pass` in `layout` (`ViewLayer.CryptoObject`, `CryptoObject`).
 pub fn crypto_name(layout: Layout, pass: Pass) -> String {
+    layer_crypto_name(layout, VIEW_LAYER, pass)
+}
+
+/// [`crypto_name`] with the `blender` layout's view layer named `layer`.
+pub fn layer_crypto_name(layout: Layout, layer: &str, pass: Pass) -> String {
     match layout {
-        Layout::Blender => format!("{VIEW_LAYER}.{}", crypto_type(pass)),
+        Layout::Blender => format!("{layer}.{}", crypto_type(pass)),
         Layout::Nuke => crypto_type(pass).to_string(),
     }
 }
@@ -281,7 +301,7 @@ pub(crate) fn file_channels<'a>(film: &'a Film, options: &ExrOptions) -> Vec<Cha
         .channels()
         .into_iter()
         .map(|view| Channel {
-            name: channel_name(options.layout, view.pass, view.component),
+            name: layer_channel_name(options.layout, options.layer(), view.pass, view.component),
             half: options.half && (view.pass.is_colour() || matches!(view.pass, Pass::Normal | Pass::DenoisingNormal)),
             view,
         })
@@ -349,7 +369,9 @@ fn header(film: &Film, channels: &[Channel], options: &ExrOptions) -> exr::error
     }
     for pass in film.passes().into_iter().filter(|p| p.is_crypto()) {
         let names = if pass == Pass::CryptoObject { &options.object_names } else { &options.material_names };
-        for (key, value) in crate::output::cryptomatte::attributes(&crypto_name(options.layout, pass), names) {
+        for (key, value) in
+            crate::output::cryptomatte::attributes(&layer_crypto_name(options.layout, options.layer(), pass), names)
+        {
             own.other.insert(name(&key, "an attribute name")?, AttributeValue::Text(text(&value)));
         }
     }

@@ -20,8 +20,8 @@
 //! | `Camera` | string | the camera's name, when the scene file gives one (a glTF camera's node name) |
 //! | `Frame` | string | the frame number (`--frame`, default 1), at least 3 digits: `001` |
 //! | `Time` | string | that frame's SMPTE timecode `hh:mm:ss:ff` at `--fps` (default 24): frame 1 is `00:00:00:01`, as Blender writes it |
-//! | `cycles.ViewLayer.samples` | string | samples per pixel, under the key Blender's image editor and Cycles' files show it |
-//! | `cycles.ViewLayer.render_time` | string | the render time, as `RenderTime` |
+//! | `cycles.ViewLayer.samples` | string | samples per pixel, under the key Blender's image editor and Cycles' files show it (the view layer's name in place of `ViewLayer` under `--layer-name`) |
+//! | `cycles.ViewLayer.render_time` | string | the render time, as `RenderTime` (likewise) |
 //! | `BlenderMultiChannel` | string | `Blender V2.55.1 and newer`, in the `blender` layout only: the key Blender writes into its multilayer files |
 //! | `worldToCamera` | m44f | world → camera space (below) |
 //! | `worldToNDC` | m44f | world → normalised device coordinates (below) |
@@ -95,6 +95,8 @@ pub struct RenderInfo {
     /// The frame number and frames per second (`Frame`, `Time`).
     pub frame: u32,
     pub fps: u32,
+    /// The view layer the channels are named under (`--layer-name`; `None`: `ViewLayer`).
+    pub layer: Option<String>,
 }
 
 /// The attributes of the module docs for `scene`, rendered as `info` says. A render makes
@@ -116,7 +118,7 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         ("File".into(), text(&scene_entry(&info.scene_file))),
         ("Frame".into(), text(&format!("{:03}", info.frame))),
         ("Time".into(), text(&timecode(info.frame, info.fps))),
-        (format!("cycles.{VIEW_LAYER}.samples"), text(&scene.image.spp.to_string())),
+        (format!("cycles.{}.samples", info.layer.as_deref().unwrap_or(VIEW_LAYER)), text(&scene.image.spp.to_string())),
     ];
     if let Some(name) = &scene.names.camera {
         out.push(("Camera".into(), text(name)));
@@ -144,7 +146,11 @@ pub fn finish(attributes: &mut Vec<(String, Attribute)>, render_seconds: f64) {
     if fixed_date.is_none() {
         run.push(("renderTimeSeconds".into(), Attribute::Float(render_seconds as f32)));
         run.push(("RenderTime".into(), text(&render_time_text(render_seconds))));
-        run.push((format!("cycles.{VIEW_LAYER}.render_time"), text(&render_time_text(render_seconds))));
+        // Under the layer of the `cycles.LAYER.samples` key [`attributes`] wrote.
+        let samples = attributes.iter().find(|(n, _)| n.starts_with("cycles.") && n.ends_with(".samples"));
+        if let Some(key) = samples.map(|(n, _)| n.replace(".samples", ".render_time")) {
+            run.push((key, text(&render_time_text(render_seconds))));
+        }
     }
     for (name, value) in run {
         match attributes.iter_mut().find(|(n, _)| *n == name) {

@@ -12,6 +12,7 @@ pub mod exr_stream;
 mod exr_zip;
 pub mod film;
 pub mod ids;
+pub mod layer_name;
 pub mod merge;
 pub mod metadata;
 pub mod passes;
