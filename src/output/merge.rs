@@ -9,7 +9,8 @@
 //! - the same `strahl/sceneHash` ([`crate::scene::hash`]: scene and settings), checked first;
 //! - the same header otherwise (display window, channels and their types, compression, line
 //!   order, every attribute), except the attributes of one run: `capDate` and `Date` (the
-//!   result has the latest), `renderTimeSeconds` and `RenderTime` (the sum), `strahl/scene`
+//!   result has the latest), `renderTimeSeconds`, `RenderTime` and `cycles.LAYER.render_time`
+//!   (the sum), `strahl/scene`
 //!   (the path as given, which may differ between machines: the top-left part's is kept),
 //!   and the Cryptomatte manifests `cryptomatte/*/manifest`, which are joined: the union of
 //!   their JSON objects, the first part's entries first (a name with two different ids is
@@ -79,8 +80,14 @@ fn fail<T>(message: String) -> Result<T, MergeError> {
     Err(MergeError(message))
 }
 
-/// The attributes that may differ between the parts of one render (see the module docs).
+/// The attributes that may differ between the parts of one render (see the module docs), and
+/// Blender's `cycles.LAYER.render_time` ([`is_per_run`]).
 const PER_RUN: [&str; 4] = ["Date", "renderTimeSeconds", "RenderTime", "strahl/scene"];
+
+/// Whether the attribute `name` may differ between the parts of one render.
+fn is_per_run(name: &[u8]) -> bool {
+    PER_RUN.iter().any(|p| p.as_bytes() == name) || (name.starts_with(b"cycles.") && name.ends_with(b".render_time"))
+}
 
 /// The scene/settings fingerprint attribute.
 const SCENE_HASH: &str = "strahl/sceneHash";
@@ -578,9 +585,7 @@ fn comparable(header: &Header) -> Header {
     h.chunk_count = 0;
     h.own_attributes.layer_position = Vec2(0, 0);
     h.own_attributes.capture_date = None;
-    h.own_attributes
-        .other
-        .retain(|name, _| !PER_RUN.iter().any(|p| p.as_bytes() == name.as_slice()) && !is_manifest(name));
+    h.own_attributes.other.retain(|name, _| !is_per_run(name.as_slice()) && !is_manifest(name));
     h
 }
 
@@ -694,9 +699,16 @@ fn joined_attributes(mut header: Header, parts: &[Part]) -> Result<Header, Merge
     if !times.is_empty() {
         let total: f64 = times.iter().map(|&t| t as f64).sum();
         other.insert(Text::from("renderTimeSeconds"), AttributeValue::F32(total as f32));
-        if other.contains_key(&Text::from("RenderTime")) {
-            let text = crate::output::metadata::render_time_text(total);
-            other.insert(Text::from("RenderTime"), AttributeValue::Text(crate::output::exr::text(&text)));
+        let text = crate::output::metadata::render_time_text(total);
+        let keys: Vec<Text> = other
+            .keys()
+            .filter(|k| {
+                k.as_slice() == b"RenderTime" || (is_per_run(k.as_slice()) && k.as_slice().starts_with(b"cycles."))
+            })
+            .cloned()
+            .collect();
+        for key in keys {
+            other.insert(key, AttributeValue::Text(crate::output::exr::text(&text)));
         }
     }
     let manifests: Vec<Text> = other.keys().filter(|k| is_manifest(k)).cloned().collect();
