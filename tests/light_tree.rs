@@ -16,22 +16,6 @@ use strahl::output::passes::{Pass, PassSet};
 use strahl::scene::Scene;
 use strahl::scene::procedural::light_panel_room;
 
-/// The form factor from a point to a parallel rectangle of sides `a`, `b` at height `h` with
-/// one corner straight above it (Howell's catalogue of configuration factors).
-fn corner_form_factor(a: f64, b: f64, h: f64) -> f64 {
-    let (ra, rb) = ((a * a + h * h).sqrt(), (b * b + h * h).sqrt());
-    (a / ra * (b / ra).atan() + b / rb * (a / rb).atan()) / (2.0 * std::f64::consts::PI)
-}
-
-/// The form factor to the rectangle `[x0, x1] × [z0, z1]` at height `h` from `(px, pz)`.
-fn form_factor(x0: f64, x1: f64, z0: f64, z1: f64, h: f64, px: f64, pz: f64) -> f64 {
-    let signed = |x: f64, z: f64| {
-        let (dx, dz) = (x - px, z - pz);
-        dx.signum() * dz.signum() * corner_form_factor(dx.abs(), dz.abs(), h)
-    };
-    signed(x1, z1) - signed(x0, z1) - signed(x1, z0) + signed(x0, z0)
-}
-
 /// The room of 16 × 16 quads over 12 × 12 m, seen straight down from 1 m above the floor point
 /// `(0.4, 0.1)` (so every pixel sees floor), direct light only.
 fn room(sampler: LightSampler) -> Scene {
@@ -56,7 +40,7 @@ fn exact(s: &Scene, x: f64, z: f64) -> f64 {
         let [_, _, c] = panel.triangle(2 * q);
         let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
         let l = s.materials[panel.material_of(2 * q) as usize].emission.x as f64;
-        sum += l * form_factor(lo.x as f64, hi.x as f64, lo.z as f64, hi.z as f64, lo.y as f64, x, z);
+        sum += l * common::form_factor(lo.x as f64, hi.x as f64, lo.z as f64, hi.z as f64, lo.y as f64, x, z);
     }
     rho * sum
 }

@@ -84,25 +84,6 @@ fn the_clamp_limits_indirect_light_only() {
     assert!(mean >= 1.5 - 3.0 * se && mean <= 1.502 + 3.0 * se, "{mean} ± {se}");
 }
 
-/// The form factor from a point to a parallel rectangle of sides `a`, `b` at height `h` with
-/// one corner straight above it (the differential area to a parallel rectangle, Howell's
-/// catalogue of configuration factors):
-/// `F = (1/2π)[a/√(a²+h²)·atan(b/√(a²+h²)) + b/√(b²+h²)·atan(a/√(b²+h²))]`.
-fn corner_form_factor(a: f64, b: f64, h: f64) -> f64 {
-    let (ra, rb) = ((a * a + h * h).sqrt(), (b * b + h * h).sqrt());
-    (a / ra * (b / ra).atan() + b / rb * (a / rb).atan()) / (2.0 * std::f64::consts::PI)
-}
-
-/// The form factor to the rectangle `[x0, x1] × [z0, z1]` at height `h` from the point
-/// `(px, pz)` below it, by adding and subtracting rectangles with a corner above the point.
-fn form_factor(x0: f64, x1: f64, z0: f64, z1: f64, h: f64, px: f64, pz: f64) -> f64 {
-    let signed = |x: f64, z: f64| {
-        let (dx, dz) = (x - px, z - pz);
-        dx.signum() * dz.signum() * corner_form_factor(dx.abs(), dz.abs(), h)
-    };
-    signed(x1, z1) - signed(x0, z1) - signed(x1, z0) + signed(x0, z0)
-}
-
 fn lit_plane(integrator: &str, light_samples: u32, spp: u32) -> Scene {
     scene(&format!(
         r#"
@@ -148,7 +129,7 @@ fn direct_light_of_a_quad_on_a_plane_is_the_form_factor_and_whitteds() {
     let mut residuals = Vec::new();
     for (i, p) in film.rgba.iter().enumerate() {
         let (x, z) = (position[3 * i] as f64, position[3 * i + 2] as f64);
-        let want = 0.8 * 5.0 * form_factor(-0.5, 0.5, -0.5, 0.5, 1.0, x, z);
+        let want = 0.8 * 5.0 * common::form_factor(-0.5, 0.5, -0.5, 0.5, 1.0, x, z);
         residuals.push(p[0] as f64 - want);
     }
     let (bias, se) = common::mean_and_error(&residuals);

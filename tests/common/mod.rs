@@ -96,6 +96,25 @@ pub fn crypto_matte(path: &Path, channels: &[(String, Vec<f32>)], name: &str) ->
     Some(matte)
 }
 
+/// The form factor from a point to a parallel rectangle of sides `a`, `b` at height `h` with
+/// one corner straight above it (the differential area to a parallel rectangle, Howell's
+/// catalogue of configuration factors):
+/// `F = (1/2π)[a/√(a²+h²)·atan(b/√(a²+h²)) + b/√(b²+h²)·atan(a/√(b²+h²))]`.
+pub fn corner_form_factor(a: f64, b: f64, h: f64) -> f64 {
+    let (ra, rb) = ((a * a + h * h).sqrt(), (b * b + h * h).sqrt());
+    (a / ra * (b / ra).atan() + b / rb * (a / rb).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+/// The form factor to the rectangle `[x0, x1] × [z0, z1]` at height `h` from the point
+/// `(px, pz)` below it, by adding and subtracting rectangles with a corner above the point.
+pub fn form_factor(x0: f64, x1: f64, z0: f64, z1: f64, h: f64, px: f64, pz: f64) -> f64 {
+    let signed = |x: f64, z: f64| {
+        let (dx, dz) = (x - px, z - pz);
+        dx.signum() * dz.signum() * corner_form_factor(dx.abs(), dz.abs(), h)
+    };
+    signed(x1, z1) - signed(x0, z1) - signed(x1, z0) + signed(x0, z0)
+}
+
 /// Films compared bit for bit (so `-0.0 ≠ 0.0` and NaNs compare too).
 pub fn same_bits(a: &Film, b: &Film) -> bool {
     let bits3 = |v: &[glam::Vec3]| v.iter().flat_map(|x| x.to_array()).map(f32::to_bits).collect::<Vec<_>>();
