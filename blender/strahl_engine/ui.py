@@ -78,8 +78,9 @@ class StrahlSettings(bpy.types.PropertyGroup):
     farm_submit: BoolProperty(name="Submit", description="Submit the jobs with sbatch, not only write them", default=False)
 
 
-class RENDER_PT_strahl(bpy.types.Panel):
-    bl_label = "strahl"
+class _StrahlRenderPanel:
+    """What the add-on's panels share: the Render properties tab, shown when strahl renders."""
+
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "render"
@@ -88,6 +89,10 @@ class RENDER_PT_strahl(bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_strahl(_StrahlRenderPanel, bpy.types.Panel):
+    bl_label = "strahl"
 
     def draw(self, context):
         layout = self.layout
@@ -107,18 +112,10 @@ class RENDER_PT_strahl(bpy.types.Panel):
         layout.prop(context.scene.render, "film_transparent", text="Transparent")
 
 
-class RENDER_PT_strahl_farm(bpy.types.Panel):
+class RENDER_PT_strahl_farm(_StrahlRenderPanel, bpy.types.Panel):
     bl_label = "Farm (Slurm)"
     bl_parent_id = "RENDER_PT_strahl"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
     bl_options = {"DEFAULT_CLOSED"}
-    COMPAT_ENGINES = {ENGINE}
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES
 
     def draw(self, context):
         layout = self.layout
