@@ -279,3 +279,51 @@ fn hdr_maps_and_the_command_line_option() {
     let e = common::fails(&dir, &["render", both.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert!(e.contains("both.toml:") && e.contains("not both"), "{e}");
 }
+
+#[test]
+fn strength_and_rotation_from_the_command_line_equal_the_scene_keys() {
+    let dir = common::TempDir::new("env-flags");
+    let (w, h) = (8, 4);
+    write_exr(&dir.path("texel.exr"), w, h, |x, y| if (x, y) == (6, 1) { [50.0; 3] } else { [0.0; 3] });
+    let render = |toml: &str, extra: &[&str]| {
+        let scene = dir.write("s.toml", toml);
+        let out = dir.path("out.exr");
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--integrator", "path"];
+        args.extend(extra);
+        let o = common::strahl(&args);
+        assert!(o.status.success(), "{}", common::text(&o.stderr));
+        let (_, _, channels) = common::read_exr(&out);
+        common::channel(&channels, "ViewLayer.Combined.G").to_vec()
+    };
+    // A square facing +x: lit only once the map is turned by 90°, and 2.5 times as bright at
+    // strength 2.5; the flags give the pixels the scene keys give, bit for bit.
+    let keys = facing([1.0, 0.0, 0.0], "[environment]\nfile = \"texel.exr\"\nrotation = 90\nstrength = 2.5");
+    let plain = facing([1.0, 0.0, 0.0], "[environment]\nfile = \"texel.exr\"");
+    let by_keys = render(&keys, &[]);
+    let by_flags = render(&plain, &["--environment-rotation", "90", "--environment-strength", "2.5"]);
+    let unturned = render(&plain, &[]);
+    assert_eq!(by_keys, by_flags);
+    let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / v.len() as f64;
+    assert!(mean(&by_flags) > 0.5 && mean(&unturned) < 1e-3, "{} {}", mean(&by_flags), mean(&unturned));
+    // The flags override the keys, and rotation −90 is 270.
+    let back = render(&keys, &["--environment-rotation", "-90", "--environment-strength", "1"]);
+    assert!(mean(&back) < 1e-3, "{}", mean(&back));
+    // With --environment too, after it.
+    let constant = render(&plain, &["--environment", "0.5,0.5,0.5", "--environment-strength", "2"]);
+    assert!((mean(&constant) - 0.5 / std::f64::consts::PI * std::f64::consts::PI * 2.0 * 0.5).abs() < 0.02);
+    // Bad values and a scene without an environment: one line naming the flag, no output.
+    let out = dir.path("out.exr");
+    std::fs::remove_file(&out).unwrap();
+    let none = dir.write("none.toml", facing([1.0, 0.0, 0.0], ""));
+    for (scene, flag, value) in [
+        (&plain, "--environment-strength", "-1"),
+        (&plain, "--environment-strength", "nan"),
+        (&plain, "--environment-rotation", "inf"),
+        (&String::new(), "--environment-rotation", "10"),
+    ] {
+        let path = if scene.is_empty() { none.clone() } else { dir.write("s.toml", scene) };
+        let e = common::fails(&dir, &["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), flag, value]);
+        assert!(e.contains(flag) && e.trim().lines().count() == 1, "{e}");
+        assert!(!out.exists());
+    }
+}

@@ -83,6 +83,14 @@ pub struct RenderArgs {
     /// orientation; see docs/lights.md), or a constant colour R,G,B.
     #[arg(long, value_name = "FILE|R,G,B")]
     environment: Option<String>,
+    /// Scales the environment's radiance (overrides `[environment] strength`; needs an
+    /// environment, from the scene or `--environment`) [default: 1].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    environment_strength: Option<f32>,
+    /// Turns the environment about the up axis by this many degrees, right-handed (overrides
+    /// `[environment] rotation`; needs an environment) [default: 0].
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
+    environment_rotation: Option<f32>,
     /// What finds the closest hits: Intel Embree, or strahl's own BVH.
     #[arg(long, value_enum, default_value_t = Backend::Embree)]
     backend: Backend,
@@ -139,6 +147,32 @@ fn passes_with_denoising(asked: Option<Vec<String>>, scene: PassSet) -> Vec<Stri
     names
 }
 
+/// `--environment-strength` and `--environment-rotation` applied to the scene's environment
+/// (after `--environment`); either one without an environment is an error, as is a value the
+/// environment refuses (a negative or non-finite strength, a non-finite rotation).
+fn override_environment(scene: &mut strahl::scene::Scene, strength: Option<f32>, rotation: Option<f32>) -> anyhow::Result<()> {
+    if strength.is_none() && rotation.is_none() {
+        return Ok(());
+    }
+    let flag = if strength.is_some() { "--environment-strength" } else { "--environment-rotation" };
+    let Some(env) = scene.environment.as_mut() else {
+        bail!("{flag}: the scene has no environment to change (give one with --environment or [environment])");
+    };
+    if let Some(s) = strength {
+        env.strength = s;
+        if let Some(problem) = env.problem() {
+            bail!("--environment-strength {s}: {problem}");
+        }
+    }
+    if let Some(r) = rotation {
+        env.rotation_deg = r;
+        if let Some(problem) = env.problem() {
+            bail!("--environment-rotation {r}: {problem}");
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let progress_every = super::progress::interval(args.progress_interval)?;
     let output = args.output.into_output();
@@ -160,6 +194,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         loaded.scene.environment =
             Some(strahl::light::environment_file::environment_argument(arg).map_err(anyhow::Error::msg)?);
     }
+    override_environment(&mut loaded.scene, args.environment_strength, args.environment_rotation)?;
     let settings = Settings {
         width: args.width,
         height: args.height,
