@@ -48,6 +48,23 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     use exr::meta::attribute::{AttributeValue, Text};
     let attributes = &image.layer_data[0].attributes.other;
     assert_eq!(attributes.get(&Text::from("strahl/integrator")), Some(&AttributeValue::Text(Text::from("path"))));
+    assert_eq!(attributes.get(&Text::from("strahl/lightSampler")), Some(&AttributeValue::Text(Text::from("tree"))));
+    assert_eq!(attributes.get(&Text::from("strahl/clamp")), None);
+    assert_eq!(attributes.get(&Text::from("strahl/adaptiveThreshold")), None);
+    // The settings that change the estimator are recorded with the values given.
+    let args = with(&["--spp", "4", "--light-sampler", "power", "--clamp", "7.5", "--adaptive-threshold", "0.02"]);
+    let ok = strahl(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(ok.status.success(), "{}", text(&ok.stderr));
+    let image = common::read_exr_image(&out);
+    let attributes = &image.layer_data[0].attributes.other;
+    assert_eq!(attributes.get(&Text::from("strahl/lightSampler")), Some(&AttributeValue::Text(Text::from("power"))));
+    assert_eq!(attributes.get(&Text::from("strahl/clamp")), Some(&AttributeValue::F32(7.5)));
+    assert_eq!(attributes.get(&Text::from("strahl/adaptiveThreshold")), Some(&AttributeValue::F32(0.02)));
+    // The Whitted integrator has none of them.
+    let ok = strahl(&["render", &scene, "-o", o, "--width", "8", "--height", "8", "--integrator", "whitted"]);
+    assert!(ok.status.success(), "{}", text(&ok.stderr));
+    let image = common::read_exr_image(&out);
+    assert_eq!(image.layer_data[0].attributes.other.get(&Text::from("strahl/lightSampler")), None);
 }
 
 /// The integrator an EXR's header names.

@@ -11,6 +11,9 @@
 //! | `samplesPerPixel` | int | samples per pixel (as pbrt-v4) |
 //! | `strahl/maxDepth` | int | longest chain of reflected/refracted rays |
 //! | `strahl/integrator` | string | `whitted` or `path` |
+//! | `strahl/lightSampler` | string | the path tracer's light selection, `tree` or `power` (path tracer only) |
+//! | `strahl/clamp` | float | the path tracer's clamp of indirect samples (only when set) |
+//! | `strahl/adaptiveThreshold` | float | adaptive sampling's noise threshold (only when on) |
 //! | `strahl/backend` | string | `embree` or `native` |
 //! | `strahl/scene` | string | the scene file's name, without its folder ([`scene_entry`]) |
 //! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
@@ -120,6 +123,15 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         ("Time".into(), text(&timecode(info.frame, info.fps))),
         (format!("cycles.{}.samples", info.layer.as_deref().unwrap_or(VIEW_LAYER)), text(&scene.image.spp.to_string())),
     ];
+    if scene.render.integrator == crate::scene::IntegratorKind::Path {
+        out.push(("strahl/lightSampler".into(), text(scene.render.light_sampler.name())));
+        if let Some(clamp) = scene.render.clamp {
+            out.push(("strahl/clamp".into(), Attribute::Float(clamp)));
+        }
+        if let Some(adaptive) = &scene.render.adaptive {
+            out.push(("strahl/adaptiveThreshold".into(), Attribute::Float(adaptive.threshold)));
+        }
+    }
     if let Some(name) = &scene.names.camera {
         out.push(("Camera".into(), text(name)));
     }
