@@ -519,6 +519,10 @@ fn render_options_every_task_would_refuse_are_refused_before_anything_is_written
         (&[], &["--checkpoint-every", "-1"], "--checkpoint-every -1 is not a number of seconds"),
         (&[], &["--checkpoint-every", "1e20"], "-- --checkpoint-every 1e20 is not a number of seconds from 0 to 1e9"),
         (&[], &["--max-memory", "1K"], "more than -- --max-memory 1 MB"),
+        (&[], &["--environment-strength", "2"], "--environment-strength: the scene has no environment"),
+        (&[], &["--environment", "1,1,1", "--environment-rotation", "nan"], "--environment-rotation NaN: rotation"),
+        (&[], &["--environment", "no-such-sky.exr"], "no-such-sky.exr"),
+        (&[], &["--light-sampler", "uniform"], "light_sampler \"uniform\" is not one of"),
         (&["--partition", "a b"], &[], "--partition \"a b\": is not a Slurm partition name"),
         (&["--time", "30 minutes"], &[], "--time \"30 minutes\": is not a Slurm time limit"),
     ];
@@ -783,4 +787,33 @@ fn every_value_farm_slurm_writes_reaches_the_jobs_exactly_or_is_refused_in_one_l
     }
     eprintln!("{carried} carried exactly, {refusals} refused");
     assert!(carried >= 40 && refusals >= 40, "{carried} carried, {refusals} refused");
+}
+
+#[test]
+fn an_environment_map_among_the_render_options_is_read_and_confined_before_anything_is_written() {
+    let dir = TempDir::new("slurm-environment");
+    let inside = dir.path("inside");
+    std::fs::create_dir(&inside).unwrap();
+    let scene = inside.join("scene.toml");
+    std::fs::copy(scene_path("cornell-path.toml"), &scene).unwrap();
+    // A readable map outside the confined folder: refused by the farm, naming it.
+    let pixels = vec![image::Rgb([0.5f32, 0.5, 0.5]); 8 * 4];
+    let mut bytes = Vec::new();
+    image::codecs::hdr::HdrEncoder::new(&mut bytes).encode(&pixels, 8, 4).unwrap();
+    let sky = dir.write("sky.hdr", &bytes);
+    let out = inside.join("frame.exr");
+    let (s, o, m, d) = (scene.to_str().unwrap(), out.to_str().unwrap(), sky.to_str().unwrap(), inside.to_str().unwrap());
+    let e = fails(&dir, &["farm", "slurm", s, "-o", o, "--tiles", "2", "--confine", d, "--", "--environment", m]);
+    assert!(e.contains("sky.hdr") && e.contains("--confine"), "{e}");
+    assert!(!out.with_extension("exr.farm").exists());
+    // Inside it, with strength and rotation: the scripts carry the options as given.
+    let inner = inside.join("sky.hdr");
+    std::fs::copy(&sky, &inner).unwrap();
+    let args = ["--environment", inner.to_str().unwrap(), "--environment-strength", "2", "--environment-rotation", "-30"];
+    let mut all = vec!["farm", "slurm", s, "-o", o, "--tiles", "2", "--confine", d, "--"];
+    all.extend(args);
+    let ok = strahl(&all);
+    assert!(ok.status.success(), "{}", text(&ok.stderr));
+    let script = std::fs::read_to_string(inside.join("frame.exr.farm/render.sbatch")).unwrap();
+    assert!(script.contains("'--environment-rotation' '-30'"), "{script}");
 }

@@ -200,6 +200,16 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     if let Some(&threshold) = m.get_one::<f32>("adaptive_threshold") {
         scene_data.render.set_adaptive_threshold(threshold);
     }
+    if let Some(&sampler) = m.get_one::<strahl::light::set::LightSampler>("light_sampler") {
+        scene_data.render.light_sampler = sampler;
+    }
+    super::render::environment_options(
+        scene_data,
+        m.get_one::<String>("environment").map(String::as_str),
+        m.get_one::<f32>("environment_strength").copied(),
+        m.get_one::<f32>("environment_rotation").copied(),
+    )
+    .map_err(|e| anyhow::anyhow!("-- {e}"))?;
     strahl::integrator::check_render(scene_data).map_err(|e| anyhow::anyhow!("{}: {e}", scene.display()))?;
     check_denoise_passes(a, scene, scene_data.output.passes)?;
     if let Some(name) = m.get_one::<String>("layer_name") {

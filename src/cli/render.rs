@@ -147,10 +147,21 @@ fn passes_with_denoising(asked: Option<Vec<String>>, scene: PassSet) -> Vec<Stri
     names
 }
 
-/// `--environment-strength` and `--environment-rotation` applied to the scene's environment
-/// (after `--environment`); either one without an environment is an error, as is a value the
-/// environment refuses (a negative or non-finite strength, a non-finite rotation).
-fn override_environment(scene: &mut strahl::scene::Scene, strength: Option<f32>, rotation: Option<f32>) -> anyhow::Result<()> {
+/// `--environment` (a map read as the scene's inputs are, or a colour), then
+/// `--environment-strength` and `--environment-rotation` applied to the scene's environment;
+/// either of the last two without an environment is an error, as is a value the environment
+/// refuses (a negative or non-finite strength, a non-finite rotation). `farm slurm` checks its
+/// tiles' options with the same function.
+pub(super) fn environment_options(
+    scene: &mut strahl::scene::Scene,
+    environment: Option<&str>,
+    strength: Option<f32>,
+    rotation: Option<f32>,
+) -> anyhow::Result<()> {
+    if let Some(arg) = environment {
+        scene.environment =
+            Some(strahl::light::environment_file::environment_argument(arg).map_err(anyhow::Error::msg)?);
+    }
     if strength.is_none() && rotation.is_none() {
         return Ok(());
     }
@@ -190,11 +201,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     super::set_load_options(&args.confine, args.max_memory)?;
     let mut loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
-    if let Some(arg) = &args.environment {
-        loaded.scene.environment =
-            Some(strahl::light::environment_file::environment_argument(arg).map_err(anyhow::Error::msg)?);
-    }
-    override_environment(&mut loaded.scene, args.environment_strength, args.environment_rotation)?;
+    environment_options(
+        &mut loaded.scene,
+        args.environment.as_deref(),
+        args.environment_strength,
+        args.environment_rotation,
+    )?;
     let settings = Settings {
         width: args.width,
         height: args.height,
