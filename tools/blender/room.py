@@ -27,6 +27,9 @@ import sys
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from principled import principled  # noqa: E402
+
 import strahl_engine.export
 
 out_dir = sys.argv[sys.argv.index("--") + 1]
@@ -37,19 +40,6 @@ for obj in list(bpy.data.objects):
 scene = bpy.context.scene
 
 WHITE = (0.725, 0.71, 0.68)
-
-
-def principled(name, base, metallic=0.0, roughness=1.0, transmission=0.0, specular=0.5):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*base, 1.0)
-    bsdf.inputs["Metallic"].default_value = metallic
-    bsdf.inputs["Roughness"].default_value = roughness
-    bsdf.inputs["Transmission"].default_value = transmission
-    bsdf.inputs["Specular"].default_value = specular
-    bsdf.inputs["IOR"].default_value = 1.5
-    return mat
 
 
 def quad(name, verts, mat):
@@ -72,7 +62,7 @@ bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.35, lo
 metal = bpy.context.active_object
 metal.name = "metal"
 bpy.ops.object.shade_smooth()
-metal.data.materials.append(principled("metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.2))
+metal.data.materials.append(principled("metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.2, specular=0.5))
 metal.keyframe_insert("location", frame=1)
 metal.location.x = 0.1
 metal.keyframe_insert("location", frame=3)
@@ -82,7 +72,7 @@ bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.3, loc
 glass = bpy.context.active_object
 glass.name = "glass"
 bpy.ops.object.shade_smooth()
-glass.data.materials.append(principled("glass", (1.0, 1.0, 1.0), roughness=0.0, transmission=1.0))
+glass.data.materials.append(principled("glass", (1.0, 1.0, 1.0), roughness=0.0, transmission=1.0, specular=0.5))
 
 light_data = bpy.data.lights.new("area", "AREA")
 light_data.shape = "SQUARE"

@@ -35,6 +35,9 @@ import sys
 
 import bpy
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "blender"))
+from principled import principled  # noqa: E402
+
 args = sys.argv[sys.argv.index("--") + 1 :]
 out_dir, size, spp, depth = args[:4]
 size, spp, depth = int(size), int(spp), int(depth)
@@ -54,19 +57,6 @@ scene = bpy.context.scene
 WHITE = (0.725, 0.71, 0.68)
 RED = (0.63, 0.065, 0.05)
 GREEN = (0.14, 0.45, 0.091)
-
-
-def principled(name, base, metallic=0.0, roughness=1.0, transmission=0.0, specular=0.0):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*base, 1.0)
-    bsdf.inputs["Metallic"].default_value = metallic
-    bsdf.inputs["Roughness"].default_value = roughness
-    bsdf.inputs["Transmission"].default_value = transmission
-    bsdf.inputs["Specular"].default_value = specular
-    bsdf.inputs["IOR"].default_value = 1.5
-    return mat
 
 
 def emitter(name, strength):
@@ -94,9 +84,9 @@ def mesh_object(name, verts, faces, mat, smooth=False):
     return obj
 
 
-white = principled("white", WHITE)
-red = principled("red", RED)
-green = principled("green", GREEN)
+white = principled("white", WHITE, specular=0.0)
+red = principled("red", RED, specular=0.0)
+green = principled("green", GREEN, specular=0.0)
 # Faces wound so that their normals face into the room.
 mesh_object("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], white)
 mesh_object("back", [(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], [(0, 1, 2, 3)], white)
@@ -119,7 +109,7 @@ bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-0.45, 0.35, 0.6), rotation=
 block = bpy.context.active_object
 block.name = "block"
 block.scale = (0.55, 0.55, 1.2)
-block.data.materials.append(principled("block", WHITE))
+block.data.materials.append(principled("block", WHITE, specular=0.0))
 
 # `opaque` lifts both spheres off the floor, so that no point of the floor is a contact point,
 # where the light goes to 0.
@@ -135,7 +125,7 @@ glass = bpy.context.active_object
 glass.name = "glass"
 bpy.ops.object.shade_smooth()
 if opaque:
-    glass.data.materials.append(principled("opaque", WHITE))
+    glass.data.materials.append(principled("opaque", WHITE, specular=0.0))
 else:
     glass.data.materials.append(principled("glass", (1.0, 1.0, 1.0), roughness=0.0, transmission=1.0, specular=0.5))
 
