@@ -817,3 +817,32 @@ fn an_environment_map_among_the_render_options_is_read_and_confined_before_anyth
     let script = std::fs::read_to_string(inside.join("frame.exr.farm/render.sbatch")).unwrap();
     assert!(script.contains("'--environment-rotation' '-30'"), "{script}");
 }
+
+#[test]
+fn merge_removes_the_temporaries_killed_runs_of_this_host_left_and_nothing_else() {
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default().trim().to_string();
+    if host.is_empty() || host.len() > 40 || !host.bytes().all(|b| b.is_ascii_alphanumeric() || b"._-".contains(&b)) {
+        common::skip(&format!("host name {host:?} is not kept as it is in temporary names"));
+        return;
+    }
+    let dir = TempDir::new("merge-stale");
+    let scene = scene_path("whitted.toml");
+    let parts: Vec<PathBuf> = (1..=2).map(|i| dir.path(&format!("t{i}.exr"))).collect();
+    for (i, part) in parts.iter().enumerate() {
+        render(&scene, part, &["--tile", &format!("{}/2", i + 1)]);
+    }
+    // A writer that is gone: a process that has ended.
+    let mut ended = Command::new("true").spawn().unwrap();
+    ended.wait().unwrap();
+    let stale = format!(".strahl-{host}-{}-1-0.tmp", ended.id());
+    let foreign = format!(".strahl-another-host-{}-1-0.tmp", ended.id());
+    std::fs::write(dir.path(&stale), vec![0u8; 1000]).unwrap();
+    std::fs::write(dir.path(&foreign), b"x").unwrap();
+    let o = merge(&dir.path("frame.exr"), &parts);
+    let stderr = text(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("removed 1 temporary"), "{stderr}");
+    let mut left = dir.entries();
+    left.sort();
+    assert_eq!(left, [foreign.as_str(), "frame.exr", "t1.exr", "t2.exr"]);
+}

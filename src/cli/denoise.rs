@@ -23,6 +23,9 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         bail!("{}: the denoised output must have the extension .exr", out.display());
     }
+    if let Some(line) = strahl::sys::temporary::remove_stale_saying(strahl::sys::atomic::directory_of(out)) {
+        eprintln!("{line}");
+    }
     strahl::output::denoise::denoise_file(&args.input, out)?;
     println!("denoised {} into {}", args.input.display(), out.display());
     Ok(())

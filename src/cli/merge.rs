@@ -47,6 +47,9 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     if fit < threads {
         eprintln!("note: merging on {fit} of {threads} threads, which the memory budget holds");
     }
+    if let Some(line) = strahl::sys::temporary::remove_stale_saying(strahl::sys::atomic::directory_of(out)) {
+        eprintln!("{line}");
+    }
     commit_all(vec![plan.stage(out, fit)?])?;
     let bytes = std::fs::metadata(out).map_or(0, |m| m.len());
     println!("merged {} parts into {} ({:.1} MB)", args.parts.len(), out.display(), bytes as f64 / 1e6);

@@ -137,15 +137,8 @@ impl Output {
         let mut dirs = vec![directory_of(&self.exr)];
         dirs.extend(self.png.as_deref().map(directory_of).filter(|d| !same_file(d, directory_of(&self.exr))));
         for dir in dirs {
-            let removed = crate::sys::temporary::remove_stale(dir);
-            if removed.files > 0 {
-                (observer.note)(&format!(
-                    "removed {} temporar{} ({:.1} MB) that killed runs of this host left in {}",
-                    removed.files,
-                    if removed.files == 1 { "y" } else { "ies" },
-                    removed.bytes as f64 / 1e6,
-                    dir.display()
-                ));
+            if let Some(line) = crate::sys::temporary::remove_stale_saying(dir) {
+                (observer.note)(&line);
             }
         }
     }

@@ -109,6 +109,22 @@ fn is_gone(w: &Writer, modified: SystemTime, boot: SystemTime) -> bool {
     }
 }
 
+/// Removes the stale temporaries in `dir` ([`remove_stale`]) and says what it removed, in one
+/// line (`None`: nothing was). Every command that writes a file into a folder calls it for that
+/// folder before it writes.
+pub fn remove_stale_saying(dir: &Path) -> Option<String> {
+    let removed = remove_stale(dir);
+    (removed.files > 0).then(|| {
+        format!(
+            "removed {} temporar{} ({:.1} MB) that killed runs of this host left in {}",
+            removed.files,
+            if removed.files == 1 { "y" } else { "ies" },
+            removed.bytes as f64 / 1e6,
+            dir.display()
+        )
+    })
+}
+
 /// What [`remove_stale`] removed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Removed {
