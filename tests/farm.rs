@@ -802,14 +802,16 @@ fn an_environment_map_among_the_render_options_is_read_and_confined_before_anyth
     image::codecs::hdr::HdrEncoder::new(&mut bytes).encode(&pixels, 8, 4).unwrap();
     let sky = dir.write("sky.hdr", &bytes);
     let out = inside.join("frame.exr");
-    let (s, o, m, d) = (scene.to_str().unwrap(), out.to_str().unwrap(), sky.to_str().unwrap(), inside.to_str().unwrap());
+    let (s, o, m, d) =
+        (scene.to_str().unwrap(), out.to_str().unwrap(), sky.to_str().unwrap(), inside.to_str().unwrap());
     let e = fails(&dir, &["farm", "slurm", s, "-o", o, "--tiles", "2", "--confine", d, "--", "--environment", m]);
     assert!(e.contains("sky.hdr") && e.contains("--confine"), "{e}");
     assert!(!out.with_extension("exr.farm").exists());
     // Inside it, with strength and rotation: the scripts carry the options as given.
     let inner = inside.join("sky.hdr");
     std::fs::copy(&sky, &inner).unwrap();
-    let args = ["--environment", inner.to_str().unwrap(), "--environment-strength", "2", "--environment-rotation", "-30"];
+    let args =
+        ["--environment", inner.to_str().unwrap(), "--environment-strength", "2", "--environment-rotation", "-30"];
     let mut all = vec!["farm", "slurm", s, "-o", o, "--tiles", "2", "--confine", d, "--"];
     all.extend(args);
     let ok = strahl(&all);
