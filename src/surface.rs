@@ -69,6 +69,15 @@ pub fn barycentric2(t: [Vec2; 3], u: f32, v: f32) -> Vec2 {
     (1.0 - u - v) * t[0] + u * t[1] + v * t[2]
 }
 
+/// The texture coordinates of sets 0 and 1 at `(u, v)` on the triangle of `mesh` with
+/// vertex indices `idx`: `(0, 0)` without a set; a mesh without a second set reads its first
+/// for `TEXCOORD_1`.
+pub fn texture_coordinates(mesh: &crate::scene::Mesh, idx: [usize; 3], u: f32, v: f32) -> [Vec2; 2] {
+    let uv = |set: &Option<Vec<Vec2>>| set.as_ref().map(|t| barycentric2(idx.map(|i| t[i]), u, v));
+    let uv0 = uv(&mesh.uvs).unwrap_or(Vec2::ZERO);
+    [uv0, uv(&mesh.uvs1).unwrap_or(uv0)]
+}
+
 impl SurfacePoint {
     /// The shading data of `hit`, the closest hit of `ray` in `scene`.
     ///
@@ -143,8 +152,5 @@ fn on_triangle(
     let ng = triangle::normal(corners[0], corners[1], corners[2]).normalize_or_zero();
     let ns = normals.map_or(Vec3::ZERO, |n| barycentric(n, h.u, h.v));
     let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), h.u, h.v));
-    let uv = |set: &Option<Vec<Vec2>>| set.as_ref().map(|t| barycentric2(idx.map(|i| t[i]), h.u, h.v));
-    let uv0 = uv(&mesh.uvs).unwrap_or(Vec2::ZERO);
-    // A mesh without a second set reads its first for `TEXCOORD_1`.
-    (p, ng, ns.normalize_or_zero(), colour, [uv0, uv(&mesh.uvs1).unwrap_or(uv0)], h.t)
+    (p, ng, ns.normalize_or_zero(), colour, texture_coordinates(mesh, idx, h.u, h.v), h.t)
 }

@@ -260,3 +260,105 @@ fn an_absorbing_glass_sphere_transmits_the_beer_lambert_series() {
         assert!((got as f64 - want).abs() < 0.01 * want, "channel {c}: {got} vs {want:.5}");
     }
 }
+
+/// A floor (ρ = 0.8) under a 1 × 1 emissive quad at height 1 whose emission texture is white
+/// on its −x half and black on its +x half (64 × 4 texels, bilinear, repeating), emission 5;
+/// the quad is an OBJ with texture coordinates, facing down by its winding (`flip`: up).
+fn textured_lamp(dir: &common::TempDir, flip: bool) -> Scene {
+    let png = image::RgbImage::from_fn(64, 4, |i, _| image::Rgb(if i < 32 { [255; 3] } else { [0; 3] }));
+    png.save(dir.path("half.png")).unwrap();
+    let faces = if flip { "f 1/1 4/4 3/3 2/2" } else { "f 1/1 2/2 3/3 4/4" };
+    let obj =
+        format!("v -0.5 1 -0.5\nv 0.5 1 -0.5\nv 0.5 1 0.5\nv -0.5 1 0.5\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n{faces}\n");
+    dir.write("lamp.obj", obj.as_bytes());
+    let toml = r#"
+[render]
+integrator = "path"
+[camera]
+eye = [0.3, 0.5, 3]
+target = [0.3, 0, 0.1]
+fov_deg = 4
+[image]
+width = 12
+height = 12
+spp = 64
+max_depth = 1
+[materials.floor]
+diffuse = [0.8, 0.8, 0.8]
+[materials.lamp]
+emission = [5, 5, 5]
+emission_texture = "half.png"
+[[objects]]
+type = "plane"
+normal = [0, 1, 0]
+distance = 0
+material = "floor"
+[[objects]]
+type = "mesh"
+path = "lamp.obj"
+material = "lamp"
+"#;
+    strahl::scene::load::file::from_toml_str(toml, &dir.path("lamp.toml")).unwrap().scene
+}
+
+/// The texture's value at `u` (bilinear between texel centres, repeating), as
+/// `strahl::texture` filters it.
+fn half_white(u: f64) -> f64 {
+    let x = u * 64.0 - 0.5;
+    let i = x.floor();
+    let f = x - i;
+    let white = |i: f64| if (i.rem_euclid(64.0)) < 32.0 { 1.0 } else { 0.0 };
+    (1.0 - f) * white(i) + f * white(i + 1.0)
+}
+
+#[test]
+fn light_sampling_of_a_textured_emitter_sees_the_texture_and_one_sided_emitters_light_one_side() {
+    let dir = common::TempDir::new("textured-lamp");
+    let mut scene = textured_lamp(&dir, false);
+    scene.output.passes = strahl::output::passes::PassSet::parse(&["combined", "position"]).unwrap();
+    let (film, _) = common::render(&scene);
+    let position = &film.aovs.iter().find(|a| a.pass == strahl::output::passes::Pass::Position).unwrap().data;
+    // ρ·5·Σ L(u_k)·F_k over 256 strips of the quad across x (u = x + 0.5); the texture's
+    // kinks lie on strip edges, so the midpoint rule is exact on its linear pieces.
+    let strips = 256;
+    let want_at = |x: f64, z: f64| {
+        (0..strips)
+            .map(|k| {
+                let (x0, x1) = (-0.5 + k as f64 / strips as f64, -0.5 + (k + 1) as f64 / strips as f64);
+                half_white(0.5 * (x0 + x1) + 0.5) * common::form_factor(x0, x1, -0.5, 0.5, 1.0, x, z)
+            })
+            .sum::<f64>()
+            * 0.8
+            * 5.0
+    };
+    let mut residuals = Vec::new();
+    let mut mean_texel = 0.0;
+    for (i, p) in film.rgba.iter().enumerate() {
+        let (x, z) = (position[3 * i] as f64, position[3 * i + 2] as f64);
+        residuals.push(p[0] as f64 - want_at(x, z));
+        mean_texel += 0.8 * 2.5 * common::form_factor(-0.5, 0.5, -0.5, 0.5, 1.0, x, z) / film.rgba.len() as f64;
+    }
+    let (bias, se) = common::mean_and_error(&residuals);
+    let mean_value = film.rgba.iter().map(|p| p[0] as f64).sum::<f64>() / film.rgba.len() as f64;
+    eprintln!("textured lamp: mean {mean_value} (the mean texel would give {mean_texel}), residual {bias} ± {se}");
+    assert!(bias.abs() <= 3.0 * se + 1e-6 * mean_value, "textured emitter vs the form factors: {bias} ± {se}");
+    assert!(se < 0.01 * mean_value && (mean_texel - mean_value) > 0.2 * mean_value, "cannot tell: ± {se}");
+
+    // One-sided: facing the floor it lights it as before; turned away, not at all (neither
+    // light sampling nor BSDF sampling may find its back).
+    for flip in [false, true] {
+        let mut scene = textured_lamp(&dir, flip);
+        let lamp = scene.materials.iter().position(|m| m.name.ends_with("lamp")).unwrap();
+        scene.materials[lamp].emission_one_sided = true;
+        let values = red(&scene);
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        if flip {
+            assert!(values.iter().all(|&v| v == 0.0), "the back of a one-sided emitter lights the floor: {mean}");
+        } else {
+            assert!(
+                (mean - mean_value).abs() < 0.05 * mean_value,
+                "one-sided, facing the floor: {mean} vs {mean_value}"
+            );
+        }
+    }
+}

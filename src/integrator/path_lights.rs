@@ -10,10 +10,10 @@
 
 use crate::accel::Hit;
 use crate::light::environment::Environment;
-use crate::light::set::{Emitter, LightSample, LightSet};
+use crate::light::set::{Emitter, LightSample, LightSet, MeshPoint};
 use crate::math::{Vec2, Vec3};
 use crate::scene::{GeomKind, Scene};
-use crate::surface::SurfacePoint;
+use crate::surface::{SurfacePoint, texture_coordinates};
 
 use super::lights::mesh_emitters;
 
@@ -69,10 +69,38 @@ impl<'a> PathLights<'a> {
         PathLights { scene, set, area_of_material, emitter_of_mesh }
     }
 
-    /// See [`LightSet::sample`].
+    /// See [`LightSet::sample`]; a point on an emissive mesh gets the radiance its material
+    /// emits there ([`PathLights::mesh_radiance`]).
     #[inline]
     pub fn sample(&self, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
-        self.set.sample(p, n, u_select, u)
+        let (mut sample, choice) = self.set.sample(p, n, u_select, u)?;
+        if let Some(at) = sample.on_mesh {
+            sample.radiance = self.mesh_radiance(at, sample.wi, sample.radiance)?;
+        }
+        Some((sample, choice))
+    }
+
+    /// The radiance leaving the mesh point `at` towards a shading point that sees it along
+    /// `wi`, where the light set gave the triangle's mean `mean`: the material's emissive
+    /// texture looked up at the point's texture coordinates (as a ray that hits the point sees
+    /// it, [`crate::shading::shade_at`]), and `None` from behind a one-sided emitter (the side
+    /// its winding's normal points away from). Otherwise `mean` as it is.
+    fn mesh_radiance(&self, at: MeshPoint, wi: Vec3, mean: Vec3) -> Option<Vec3> {
+        let mesh = self.scene.meshes.get(at.mesh as usize)?;
+        let material = self.scene.materials.get(mesh.material_of(at.prim as usize) as usize)?;
+        let idx = mesh.indices.get(at.prim as usize)?.map(|i| i as usize);
+        if material.emission_one_sided {
+            let [a, b, c] = idx.map(|i| mesh.positions[i]);
+            if (b - a).cross(c - a).dot(wi) >= 0.0 {
+                return None;
+            }
+        }
+        match material.pbr.as_deref() {
+            Some(pbr) if pbr.emissive_texture.is_some() => {
+                Some(pbr.emission_at(texture_coordinates(mesh, idx, at.u, at.v)))
+            }
+            _ => Some(mean),
+        }
     }
 
     /// The density (choice × solid angle) with which [`LightSet::sample`] from `p` would have

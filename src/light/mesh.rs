@@ -1,7 +1,11 @@
 //! Emissive triangle meshes as area lights: every mesh whose material (or per-triangle
 //! material) has an `emission` `L ≠ 0` — a TOML material, an OBJ `Ke`, a glTF emissive —
 //! lights the scene like a quad light made of those triangles, two-sided (as the camera sees
-//! such a surface, from both sides).
+//! such a surface, from both sides). `L` here is the triangle's mean radiance (an emission
+//! texture's mean texel): what chooses lights and triangles. The path tracer then looks the
+//! radiance up where the sampled point lies, texture and one-sided emission included
+//! ([`crate::integrator::path_lights::PathLights::sample`]), so light sampling and BSDF
+//! sampling estimate the same light.
 //!
 //! `mesh_light_samples` (in `[image]`, default 1) samples per shading point per mesh, each
 //! carrying `1/mesh_light_samples` of the estimate and stratified as an area light's: a triangle is chosen with probability proportional
@@ -126,6 +130,13 @@ impl MeshEmitter {
         let s = (u.x as f64).sqrt();
         let y = (1.0 - s) * a + s * (1.0 - u.y as f64) * b + s * u.y as f64 * c;
         (y, (b - a).cross(c - a).normalize())
+    }
+
+    /// The barycentric coordinates `(u, v)` (of the second and third corners) of the point
+    /// [`MeshEmitter::sample_triangle`] gives for `u`: `(√u₁(1 − u₂), √u₁·u₂)`.
+    pub fn barycentric_of_sample(u: Vec2) -> (f32, f32) {
+        let s = (u.x as f64).sqrt();
+        ((s * (1.0 - u.y as f64)) as f32, (s * u.y as f64) as f32)
     }
 
     /// One sample of the mesh seen from `p` for the point `u ∈ [0, 1)²`, as

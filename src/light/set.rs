@@ -106,6 +106,21 @@ pub struct LightSample {
     pub pdf: f32,
     /// A point or directional light: no BSDF sample can find it.
     pub delta: bool,
+    /// For a point on an emissive mesh: where, so that a radiance that varies over the
+    /// surface (an emissive texture, one-sided emission) can be looked up there
+    /// ([`crate::integrator::path_lights::PathLights::sample`]); `radiance` is then the
+    /// triangle's mean.
+    pub on_mesh: Option<MeshPoint>,
+}
+
+/// A point of triangle `prim` of the scene's mesh `mesh`, at the barycentric coordinates
+/// `(u, v)` as a hit gives them: `(1 − u − v)·p0 + u·p1 + v·p2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshPoint {
+    pub mesh: u32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
 }
 
 /// An emitter a BSDF-sampled ray can hit: area light `k`, or triangle `prim` (its index in
@@ -266,17 +281,26 @@ impl LightSet {
                     radiance: inc.normal_irradiance,
                     pdf: 1.0,
                     delta: true,
+                    on_mesh: None,
                 }
             }
             Entry::Area(i) => {
                 let light = &self.area[i as usize];
                 let inc = light.sample(p, u)?;
                 let pdf = area_light_pdf(&light.shape, p, inc.to_light, inc.distance);
-                LightSample { wi: inc.to_light, distance: inc.distance, radiance: light.radiance, pdf, delta: false }
+                LightSample {
+                    wi: inc.to_light,
+                    distance: inc.distance,
+                    radiance: light.radiance,
+                    pdf,
+                    delta: false,
+                    on_mesh: None,
+                }
             }
             Entry::Triangle { mesh, tri } => {
                 let e = &self.meshes[mesh as usize];
                 let (y, normal) = e.sample_triangle(tri as usize, u);
+                let (bu, bv) = MeshEmitter::barycentric_of_sample(u);
                 let to = y - p.as_dvec3();
                 let d2 = to.length_squared();
                 let d = d2.sqrt();
@@ -292,11 +316,12 @@ impl LightSet {
                     radiance: e.radiance(tri as usize),
                     pdf,
                     delta: false,
+                    on_mesh: Some(MeshPoint { mesh: e.mesh, prim: e.prim(tri as usize), u: bu, v: bv }),
                 }
             }
             Entry::Environment => {
                 let (wi, radiance, pdf) = self.environment.as_ref()?.sample(u)?;
-                LightSample { wi, distance: f32::INFINITY, radiance, pdf, delta: false }
+                LightSample { wi, distance: f32::INFINITY, radiance, pdf, delta: false, on_mesh: None }
             }
         };
         (sample.pdf > 0.0 && sample.pdf.is_finite()).then_some(sample)
