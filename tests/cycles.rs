@@ -99,14 +99,26 @@ fn render(dir: &TempDir, glb: &Path, name: &str, size: usize, spp: u32, extra: &
 
 #[test]
 fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
-    let dir = TempDir::new("cycles");
-    let Some((glb, cycles_exr)) = blender_cornell(&dir.0, SIZE, CYCLES_SPP, &[]) else { return };
+    agrees_with_cycles("cycles", &[]);
+}
+
+/// The same room with a rough metal sphere (glTF roughness 0.4, base colour 0.9; Cycles'
+/// Principled BSDF with Multiscatter GGX): the glTF BRDF's GGX lobe, its Schlick Fresnel and
+/// its energy compensation against Cycles'.
+#[test]
+fn a_rough_metal_agrees_with_cycles() {
+    agrees_with_cycles("cycles-rough", &["rough"]);
+}
+
+fn agrees_with_cycles(name: &str, flags: &[&str]) {
+    let dir = TempDir::new(name);
+    let Some((glb, cycles_exr)) = blender_cornell(&dir.0, SIZE, CYCLES_SPP, flags) else { return };
     let strahl_exr = render(&dir, &glb, "strahl.exr", SIZE, STRAHL_SPP, &["--integrator", "path"]);
     let (s, c) = (rgb_sum(&strahl_exr, STRAHL_LAYER, SIZE), rgb_sum(&cycles_exr, "", SIZE));
     let cmp = common::compare_blocks(&s, &c, SIZE, BLOCK, "Cycles");
     let (failing, relative) = (&cmp.failing, cmp.relative);
     eprintln!(
-        "strahl vs Cycles: worst z {:.2} (block {}), image mean {:.5} vs {:.5} ({:+.3} %)",
+        "{name} {flags:?}: strahl vs Cycles: worst z {:.2} (block {}), image mean {:.5} vs {:.5} ({:+.3} %)",
         cmp.worst.0,
         cmp.worst.1,
         cmp.means.0,

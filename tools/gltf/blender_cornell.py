@@ -2,7 +2,7 @@
 it with Cycles, for the path tracer's comparison with Cycles (tests/cycles.rs,
 `make test-cycles`).
 
-    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque] [passes] [centre]
+    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque] [passes] [centre] [rough]
 
 writes OUT_DIR/cornell.gltf (+ .bin) and OUT_DIR/cycles.exr (SIZE x SIZE pixels, SPP samples, scene-linear
 RGBA floats; SPP 0 exports without rendering). `opaque` makes the glass sphere white diffuse, lifts
@@ -48,6 +48,10 @@ opaque = "opaque" in flags
 # sample at the pixel centre (a box filter 0.01 pixel wide, Cycles' narrowest).
 passes = "passes" in flags
 centre = "centre" in flags
+# `rough`: the metal sphere has roughness 0.4 (GGX, alpha 0.16) instead of 0; Cycles renders it
+# with Multiscatter GGX, which keeps the energy single-scattering GGX loses, as strahl's glTF
+# BRDF does (Kulla-Conty).
+rough = "rough" in flags
 os.makedirs(out_dir, exist_ok=True)
 
 for obj in list(bpy.data.objects):
@@ -118,7 +122,9 @@ bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.35, lo
 metal = bpy.context.active_object
 metal.name = "metal"
 bpy.ops.object.shade_smooth()
-metal.data.materials.append(principled("metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0, specular=0.5))
+metal.data.materials.append(
+    principled("metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.4 if rough else 0.0, specular=0.5)
+)
 
 bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.3, location=(0.35, -0.45, 0.3 + lift))
 glass = bpy.context.active_object
@@ -176,6 +182,9 @@ for mat in (white, red, green, block.data.materials[0]) + ((glass.data.materials
     diffuse.inputs["Color"].default_value = base
     diffuse.inputs["Roughness"].default_value = 0.0
     mat.node_tree.links.new(diffuse.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
+
+if rough:
+    metal.data.materials[0].node_tree.nodes["Principled BSDF"].distribution = "MULTI_GGX"
 
 world = bpy.data.worlds.new("black")
 world.use_nodes = True
