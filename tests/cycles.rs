@@ -104,7 +104,8 @@ fn path_tracer_agrees_with_cycles_on_a_cornell_room() {
 
 /// The same room with a rough metal sphere (glTF roughness 0.4, base colour 0.9; Cycles'
 /// Principled BSDF with Multiscatter GGX): the glTF BRDF's GGX lobe, its Schlick Fresnel and
-/// its energy compensation against Cycles'.
+/// its energy compensation against Cycles'. Measured: worst block z −2.62, image mean −0.10 %;
+/// the same file with the sphere's roughness changed to 0.25 fails (z 8.9 on the sphere).
 #[test]
 fn a_rough_metal_agrees_with_cycles() {
     agrees_with_cycles("cycles-rough", &["rough"]);
