@@ -153,7 +153,7 @@ impl Material {
     }
 
     /// Every image the material samples, in a fixed order: the diffuse texture's, then the
-    /// PBR part's base colour, metallic-roughness and emissive textures'.
+    /// PBR part's base colour, metallic-roughness, emissive and normal textures'.
     pub fn images(&self) -> Vec<&std::sync::Arc<crate::texture::Image>> {
         let mut images = Vec::new();
         if let Texture::Image(t) = &self.diffuse {
@@ -283,6 +283,10 @@ pub struct Pbr {
     /// `emissiveFactor · KHR_materials_emissive_strength`, W/(m²·sr).
     pub emission: Vec3,
     pub emissive_texture: Option<TextureSlot>,
+    /// `normalTexture` (linear): the shading normal's direction in the tangent frame
+    /// ([`crate::normal_map`]), its `x` and `y` multiplied by `normal_scale`.
+    pub normal_texture: Option<TextureSlot>,
+    pub normal_scale: f32,
     /// `KHR_materials_volume`: `thicknessFactor` (0: thin-walled, no volume),
     /// `attenuationColor` and `attenuationDistance` (infinite: no absorption).
     pub thickness: f32,
@@ -301,6 +305,8 @@ impl Default for Pbr {
             metallic_roughness_texture: None,
             emission: Vec3::ZERO,
             emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
             thickness: 0.0,
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
@@ -311,12 +317,22 @@ impl Default for Pbr {
 
 impl Pbr {
     /// The texture slots, in a fixed order.
-    pub fn slots(&self) -> [Option<&TextureSlot>; 3] {
-        [self.base_color_texture.as_ref(), self.metallic_roughness_texture.as_ref(), self.emissive_texture.as_ref()]
+    pub fn slots(&self) -> [Option<&TextureSlot>; 4] {
+        [
+            self.base_color_texture.as_ref(),
+            self.metallic_roughness_texture.as_ref(),
+            self.emissive_texture.as_ref(),
+            self.normal_texture.as_ref(),
+        ]
     }
 
-    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 3] {
-        [self.base_color_texture.as_mut(), self.metallic_roughness_texture.as_mut(), self.emissive_texture.as_mut()]
+    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 4] {
+        [
+            self.base_color_texture.as_mut(),
+            self.metallic_roughness_texture.as_mut(),
+            self.emissive_texture.as_mut(),
+            self.normal_texture.as_mut(),
+        ]
     }
 
     /// The base colour at a hit: factor × texture × vertex colour `color`.
@@ -423,6 +439,9 @@ impl Pbr {
             .or_else(|| bad_colour("specular colour", self.factors.specular_color))
             .or_else(|| bad_colour("sheen colour", self.factors.sheen_color))
             .or_else(|| bad_colour("attenuation colour", self.attenuation_color))
+            .or_else(|| {
+                (!self.normal_scale.is_finite()).then(|| format!("normal scale {} must be finite", self.normal_scale))
+            })
             .or_else(|| {
                 (!(self.attenuation_distance > 0.0))
                     .then(|| format!("attenuation distance {} must be > 0", self.attenuation_distance))
