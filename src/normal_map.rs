@@ -20,8 +20,10 @@
 //! the mirror direction of `wo` about it points into the surface; the BSDF would then be black
 //! there. As Cycles does (`ensure_valid_specular_reflection`), the mapped normal `n` is kept
 //! when the reflection `R = 2(n·wo)n − wo` leaves the geometric surface by at least
-//! `τ = min(0.9 wo·n_g, 0.01)` (`R·n_g ≥ τ`); otherwise it is bent towards `n_g`, in the plane
-//! of `n_g` and `n`, just far enough that `R·n_g = τ` ([`valid_reflection`]).
+//! `τ = min(0.9 wo·n_g, 0.01)` (`R·n_g ≥ τ`) and, since strahl's BSDFs see nothing from behind
+//! their normal, the viewer is in front of it (`n·wo > 0`); otherwise it is bent towards `n_g`,
+//! in the plane of `n_g` and `n`, just far enough that `R·n_g = τ` ([`valid_reflection`];
+//! the bent normal has `n·wo = (τ + wo·n_g)/(2 n·n_g) > 0`).
 //! Interpolated normals without a normal map keep their own rule (replaced by `n_g` when they
 //! face away from the viewer), so scenes without normal maps shade as before.
 
@@ -63,7 +65,7 @@ pub fn valid_reflection(ng: Vec3, wo: Vec3, n: Vec3) -> Vec3 {
     let r = 2.0 * n.dot(wo) * n - wo;
     let iz = wo.dot(ng).max(0.0);
     let threshold = (0.9 * iz).min(0.01);
-    if r.dot(ng) >= threshold {
+    if r.dot(ng) >= threshold && n.dot(wo) > 0.0 {
         return n;
     }
     let x = (n - n.dot(ng) * ng).normalize_or_zero();
@@ -101,7 +103,7 @@ mod tests {
 
     #[test]
     fn scale_zero_is_unperturbed_and_scale_tilts() {
-        let c = Vec3::new(1.0, 0.5, 0.5 + 0.5 * 3f32.sqrt() / 2.0); // 30° towards +x, unit
+        let c = Vec3::new(0.75, 0.5, 0.5 + 0.5 * 3f32.sqrt() / 2.0); // 30° towards +x, unit
         assert!(close(tangent_space_normal(c, 0.0), Vec3::Z));
         let n = tangent_space_normal(c, 1.0);
         assert!((n.z - 30f32.to_radians().cos()).abs() < 1e-6, "{n}");
@@ -133,7 +135,7 @@ mod tests {
             let r = 2.0 * bent.dot(wo) * bent - wo;
             let tau = (0.9 * wo.z).min(0.01);
             assert!((r.dot(ng) - tau).abs() < 1e-4, "n {n}: bent {bent}, R·ng {}", r.dot(ng));
-            assert!((bent.length() - 1.0).abs() < 1e-5 && bent.z > 0.0);
+            assert!((bent.length() - 1.0).abs() < 1e-5 && bent.z > 0.0 && bent.dot(wo) > 0.0);
         }
     }
 }

@@ -95,7 +95,11 @@ fn assert_pixels(channels: &[(String, Vec<f32>)], pass: &str, names: [&str; 3], 
         let values = channel(channels, &format!("ViewLayer.{pass}.{name}"));
         for p in centre() {
             let got = values[p] as f64;
-            assert!((got - want[c]).abs() <= 1e-4 * want[c].abs().max(1e-2), "{what}: pixel {p} {pass}.{name}: {got} vs {}", want[c]);
+            assert!(
+                (got - want[c]).abs() <= 1e-4 * want[c].abs().max(1e-2),
+                "{what}: pixel {p} {pass}.{name}: {got} vs {}",
+                want[c]
+            );
         }
     }
 }

@@ -603,7 +603,12 @@ impl Reader<'_> {
     }
 
     /// `normalTexture` (linear) with its `scale` and `KHR_texture_transform`, into `out`.
-    fn normal_texture(&mut self, normal: &gltf::material::NormalTexture, out: &mut Pbr, what: &str) -> Result<(), String> {
+    fn normal_texture(
+        &mut self,
+        normal: &gltf::material::NormalTexture,
+        out: &mut Pbr,
+        what: &str,
+    ) -> Result<(), String> {
         let mut slot = self.texture(&normal.texture(), normal.tex_coord(), None, Encoding::Linear, what)?;
         if let Some(value) = normal.extension_value("KHR_texture_transform") {
             let t: gltf::json::extensions::texture::TextureTransform = serde_json::from_value(value.clone())
