@@ -62,6 +62,10 @@ pub struct SurfacePoint {
     pub color: Vec3,
     /// The ray parameter of the hit (on triangles re-solved in f64, see the module docs).
     pub t: f32,
+    /// Texture-coordinate units per unit of length on the triangle, per set:
+    /// `√(uv area / world area)` (Δ₀ of ray-cone texture LOD, [`crate::shading`]); 0 where
+    /// the surface has no texture coordinates.
+    pub uv_density: [f32; 2],
 }
 
 /// `(1 − u − v)·q0 + u·q1 + v·q2`.
@@ -83,7 +87,7 @@ impl SurfacePoint {
     /// integrator checks the scene before tracing).
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let prim = hit.prim_id as usize;
-        let (p, ng_outward, ns, colour, uv, material, t, tangent) = match scene.geom_kind(hit.geom_id) {
+        let (p, ng_outward, ns, colour, (uv, uv_density), material, t, tangent) = match scene.geom_kind(hit.geom_id) {
             GeomKind::Mesh(m) => {
                 let mesh = &scene.meshes[m as usize];
                 let idx = mesh.indices[prim].map(|i| i as usize);
@@ -113,13 +117,14 @@ impl SurfacePoint {
             GeomKind::Spheres => {
                 let s = &scene.spheres[prim];
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
-                (s.center + s.radius * n, n, n, Vec3::ONE, [Vec2::ZERO; 2], s.material, hit.t, Vec4::ZERO)
+                let uv = ([Vec2::ZERO; 2], [0.0; 2]);
+                (s.center + s.radius * n, n, n, Vec3::ONE, uv, s.material, hit.t, Vec4::ZERO)
             }
             GeomKind::Planes => {
                 let pl = &scene.planes[prim];
                 let x = ray.at(hit.t);
                 let p = x - (pl.normal.dot(x) - pl.dist) * pl.normal;
-                (p, pl.normal, pl.normal, Vec3::ONE, [Vec2::ZERO; 2], pl.material, hit.t, Vec4::ZERO)
+                (p, pl.normal, pl.normal, Vec3::ONE, ([Vec2::ZERO; 2], [0.0; 2]), pl.material, hit.t, Vec4::ZERO)
             }
         };
         // A degenerate triangle (zero area) has no normal of its own: face the ray.
@@ -135,7 +140,7 @@ impl SurfacePoint {
             None => ns,
         };
         let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv, color: colour, t }
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv, color: colour, t, uv_density }
     }
 }
 
@@ -167,7 +172,7 @@ fn on_triangle(
     normals: Option<[Vec3; 3]>,
     tangents: Option<[Vec4; 3]>,
     swapped: bool,
-) -> (Vec3, Vec3, Vec3, Vec3, [Vec2; 2], f32, Vec4) {
+) -> (Vec3, Vec3, Vec3, Vec3, ([Vec2; 2], [f32; 2]), f32, Vec4) {
     let (u, v) = if swapped { (hit.v, hit.u) } else { (hit.u, hit.v) };
     let h = triangle::resolve_f64(ray.org, ray.dir, corners).unwrap_or(triangle::TriangleHit { t: hit.t, u, v });
     let p = barycentric(corners, h.u, h.v);
@@ -176,7 +181,18 @@ fn on_triangle(
     let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), h.u, h.v));
     let uv = |set: &Option<Vec<Vec2>>| set.as_ref().map(|t| barycentric2(idx.map(|i| t[i]), h.u, h.v));
     let uv0 = uv(&mesh.uvs).unwrap_or(Vec2::ZERO);
+    let area = (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
+    let density = |set: &Option<Vec<Vec2>>| {
+        let t = set.as_ref().map(|t| idx.map(|i| t[i]));
+        t.map_or(0.0, |t| {
+            let uv_area = (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
+            if area > 0.0 && uv_area.is_finite() { (uv_area / area).sqrt() } else { 0.0 }
+        })
+    };
+    let d0 = density(&mesh.uvs);
+    let d1 = if mesh.uvs1.is_some() { density(&mesh.uvs1) } else { d0 };
     let tangent = tangents.map_or(Vec4::ZERO, |t| (1.0 - h.u - h.v) * t[0] + h.u * t[1] + h.v * t[2]);
     // A mesh without a second set reads its first for `TEXCOORD_1`.
-    (p, ng, ns.normalize_or_zero(), colour, [uv0, uv(&mesh.uvs1).unwrap_or(uv0)], h.t, tangent)
+    let uv = [uv0, uv(&mesh.uvs1).unwrap_or(uv0)];
+    (p, ng, ns.normalize_or_zero(), colour, (uv, [d0, d1]), h.t, tangent)
 }
