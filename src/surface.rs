@@ -144,6 +144,9 @@ impl SurfacePoint {
     }
 }
 
+/// Both texture coordinate sets at a hit and their densities ([`SurfacePoint::uv_density`]).
+type Uvs = ([Vec2; 2], [f32; 2]);
+
 /// The normal-mapped shading normal at a point of `material` whose interpolated normal
 /// (on the outward side) is `n`, tangent `tangent` and texture coordinates `uv`, if the
 /// material has a normal map and the point a tangent ([`crate::normal_map`]).
@@ -172,7 +175,7 @@ fn on_triangle(
     normals: Option<[Vec3; 3]>,
     tangents: Option<[Vec4; 3]>,
     swapped: bool,
-) -> (Vec3, Vec3, Vec3, Vec3, ([Vec2; 2], [f32; 2]), f32, Vec4) {
+) -> (Vec3, Vec3, Vec3, Vec3, Uvs, f32, Vec4) {
     let (u, v) = if swapped { (hit.v, hit.u) } else { (hit.u, hit.v) };
     let h = triangle::resolve_f64(ray.org, ray.dir, corners).unwrap_or(triangle::TriangleHit { t: hit.t, u, v });
     let p = barycentric(corners, h.u, h.v);

@@ -136,7 +136,8 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
         .materials
         .iter()
         .flat_map(|m| m.images())
-        .filter_map(|image| seen.insert(std::sync::Arc::as_ptr(image)).then(|| image.size_bytes() as u64))
+        .filter(|&image| seen.insert(std::sync::Arc::as_ptr(image)))
+        .map(|image| image.size_bytes() as u64)
         .sum();
     let triangles = meshes.clone().map(|m| m.indices.len() as u64).sum::<u64>();
     let vertices = meshes.clone().map(|m| m.positions.len() as u64).sum::<u64>();
