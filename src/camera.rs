@@ -90,6 +90,23 @@ pub struct Camera {
     ortho: bool,
 }
 
+/// A camera ray's cone ([`Camera::ray_cone`]): width `width + spread·d` at distance `d`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayCone {
+    /// Width at the ray's origin (world units).
+    pub width: f32,
+    /// Growth of the width per unit of distance (the spread angle, radians, small).
+    pub spread: f32,
+}
+
+impl RayCone {
+    /// The cone's width at distance `d`.
+    #[inline]
+    pub fn width_at(&self, d: f32) -> f32 {
+        self.width + self.spread * d
+    }
+}
+
 /// `up` counts as parallel to the view direction when the sine of the angle between them is
 /// below this: the basis would then be dominated by rounding.
 const PARALLEL_SINE: f64 = 1e-6;
@@ -195,6 +212,21 @@ impl Camera {
             return Ray::new(origin.as_vec3(), (-self.w).as_vec3());
         }
         Ray::new(self.eye.as_vec3(), (s / s.length()).as_vec3())
+    }
+
+    /// The ray cone of a camera ray (Akenine-Möller et al., "Texture Level of Detail
+    /// Strategies for Real-Time Ray Tracing", Ray Tracing Gems ch. 20): its width at distance
+    /// `d` along the ray is `width + spread·d`. A perspective camera's rays start as points and
+    /// spread by the angle of one pixel, `γ = 2·tan(fov/2)/height` (the image plane's height
+    /// over its pixels, at distance 1); an orthographic camera's keep the width of one pixel.
+    /// A lens's aperture is not counted.
+    pub fn ray_cone(&self) -> RayCone {
+        let pixel = (self.t - self.b) / self.height as f64;
+        if self.ortho {
+            RayCone { width: pixel as f32, spread: 0.0 }
+        } else {
+            RayCone { width: 0.0, spread: (pixel / IMAGE_PLANE_DISTANCE) as f32 }
+        }
     }
 
     /// Whether the rays are parallel (an orthographic camera).

@@ -20,6 +20,7 @@ pub mod job;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod normal_map;
 pub mod optics;
 pub mod output;
 pub mod sampler;

@@ -13,6 +13,22 @@
 
 use crate::bsdf::PbrParams;
 use crate::math::{Vec2, Vec3};
+
+/// Where a texture is read: the hit's texture coordinate sets (`TEXCOORD_0`, `TEXCOORD_1`,
+/// strahl's bottom-left convention) and the width of the ray's footprint in each set's units
+/// (0: a point sample, the bilinear lookup; see [`crate::shading`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TexCoords {
+    pub uv: [Vec2; 2],
+    pub width: [f32; 2],
+}
+
+impl From<[Vec2; 2]> for TexCoords {
+    /// A point sample at `uv`.
+    fn from(uv: [Vec2; 2]) -> TexCoords {
+        TexCoords { uv, width: [0.0; 2] }
+    }
+}
 use crate::texture::ImageTexture;
 
 /// How the diffuse albedo varies over a surface.
@@ -43,7 +59,7 @@ impl Texture {
     /// its hit points. The lookup therefore moves `p` by `10⁻⁴·size` into the object (against
     /// the outward normal), which decides such ties the same way everywhere and moves the
     /// checker's edges by a negligible amount elsewhere.
-    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3, uv: [Vec2; 2]) -> Vec3 {
+    pub fn albedo_at(&self, p: Vec3, ng_outward: Vec3, uv: impl Into<TexCoords>) -> Vec3 {
         match self {
             Texture::Constant(c) => *c,
             &Texture::Checker { even, odd, size } => {
@@ -153,7 +169,7 @@ impl Material {
     }
 
     /// Every image the material samples, in a fixed order: the diffuse texture's, then the
-    /// PBR part's base colour, metallic-roughness and emissive textures'.
+    /// PBR part's base colour, metallic-roughness, emissive and normal textures'.
     pub fn images(&self) -> Vec<&std::sync::Arc<crate::texture::Image>> {
         let mut images = Vec::new();
         if let Texture::Image(t) = &self.diffuse {
@@ -241,19 +257,28 @@ impl TextureSlot {
         TextureSlot { texture, tex_coord: 0, transform: None }
     }
 
-    /// The filtered texel at a hit whose texture coordinate sets are `uv` (strahl's bottom-left
-    /// convention, as [`crate::surface::SurfacePoint`] holds them).
-    pub fn at(&self, uv: [Vec2; 2]) -> Vec3 {
-        let uv = uv[(self.tex_coord as usize).min(1)];
-        let uv = match self.transform {
-            None => uv,
+    /// The filtered texel at a hit whose texture coordinate sets are `at.uv` (strahl's
+    /// bottom-left convention, as [`crate::surface::SurfacePoint`] holds them): bilinear for a
+    /// point sample, trilinear at the level of detail `λ = log₂(width·s·√(W·H))` of a footprint
+    /// `width` wide in the set's units (`s = √|det M|`, the transform's scale; `W × H` texels).
+    pub fn at(&self, at: impl Into<TexCoords>) -> Vec3 {
+        let at = at.into();
+        let set = (self.tex_coord as usize).min(1);
+        let (uv, width) = (at.uv[set], at.width[set]);
+        let (uv, scale) = match self.transform {
+            None => (uv, 1.0),
             Some([r0, r1]) => {
                 let (u, v) = (uv.x, 1.0 - uv.y);
                 let (u2, v2) = (r0[0] * u + r0[1] * v + r0[2], r1[0] * u + r1[1] * v + r1[2]);
-                Vec2::new(u2, 1.0 - v2)
+                (Vec2::new(u2, 1.0 - v2), (r0[0] * r1[1] - r0[1] * r1[0]).abs().sqrt())
             }
         };
-        self.texture.lookup(uv)
+        if !(width > 0.0) {
+            return self.texture.lookup(uv);
+        }
+        let image = &self.texture.image;
+        let texels = ((image.width * image.height) as f32).sqrt();
+        self.texture.lookup_lod(uv, (width * scale * texels).log2())
     }
 
     /// The image's mean texel (for the lecture form).
@@ -283,6 +308,10 @@ pub struct Pbr {
     /// `emissiveFactor · KHR_materials_emissive_strength`, W/(m²·sr).
     pub emission: Vec3,
     pub emissive_texture: Option<TextureSlot>,
+    /// `normalTexture` (linear): the shading normal's direction in the tangent frame
+    /// ([`crate::normal_map`]), its `x` and `y` multiplied by `normal_scale`.
+    pub normal_texture: Option<TextureSlot>,
+    pub normal_scale: f32,
     /// `KHR_materials_volume`: `thicknessFactor` (0: thin-walled, no volume),
     /// `attenuationColor` and `attenuationDistance` (infinite: no absorption).
     pub thickness: f32,
@@ -301,6 +330,8 @@ impl Default for Pbr {
             metallic_roughness_texture: None,
             emission: Vec3::ZERO,
             emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
             thickness: 0.0,
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
@@ -311,22 +342,34 @@ impl Default for Pbr {
 
 impl Pbr {
     /// The texture slots, in a fixed order.
-    pub fn slots(&self) -> [Option<&TextureSlot>; 3] {
-        [self.base_color_texture.as_ref(), self.metallic_roughness_texture.as_ref(), self.emissive_texture.as_ref()]
+    pub fn slots(&self) -> [Option<&TextureSlot>; 4] {
+        [
+            self.base_color_texture.as_ref(),
+            self.metallic_roughness_texture.as_ref(),
+            self.emissive_texture.as_ref(),
+            self.normal_texture.as_ref(),
+        ]
     }
 
-    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 3] {
-        [self.base_color_texture.as_mut(), self.metallic_roughness_texture.as_mut(), self.emissive_texture.as_mut()]
+    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 4] {
+        [
+            self.base_color_texture.as_mut(),
+            self.metallic_roughness_texture.as_mut(),
+            self.emissive_texture.as_mut(),
+            self.normal_texture.as_mut(),
+        ]
     }
 
     /// The base colour at a hit: factor × texture × vertex colour `color`.
-    pub fn base_color_at(&self, uv: [Vec2; 2], color: Vec3) -> Vec3 {
+    pub fn base_color_at(&self, uv: impl Into<TexCoords>, color: Vec3) -> Vec3 {
+        let uv = uv.into();
         let texture = self.base_color_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
         self.factors.base_color * texture * color
     }
 
     /// What `bsdf::gltf` takes at a hit with texture coordinates `uv` and vertex colour `color`.
-    pub fn params_at(&self, uv: [Vec2; 2], color: Vec3) -> PbrParams {
+    pub fn params_at(&self, uv: impl Into<TexCoords>, color: Vec3) -> PbrParams {
+        let uv = uv.into();
         let mr = self.metallic_roughness_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
         PbrParams {
             base_color: self.base_color_at(uv, color),
@@ -337,7 +380,7 @@ impl Pbr {
     }
 
     /// The emitted radiance at a hit: `emission × emissiveTexture(uv)`.
-    pub fn emission_at(&self, uv: [Vec2; 2]) -> Vec3 {
+    pub fn emission_at(&self, uv: impl Into<TexCoords>) -> Vec3 {
         self.emission * self.emissive_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv))
     }
 
@@ -423,6 +466,9 @@ impl Pbr {
             .or_else(|| bad_colour("specular colour", self.factors.specular_color))
             .or_else(|| bad_colour("sheen colour", self.factors.sheen_color))
             .or_else(|| bad_colour("attenuation colour", self.attenuation_color))
+            .or_else(|| {
+                (!self.normal_scale.is_finite()).then(|| format!("normal scale {} must be finite", self.normal_scale))
+            })
             .or_else(|| {
                 (!(self.attenuation_distance > 0.0))
                     .then(|| format!("attenuation distance {} must be > 0", self.attenuation_distance))

@@ -1,6 +1,6 @@
 //! Rays, bounding boxes and the robust offset of secondary-ray origins, over `glam`.
 
-pub use glam::{Vec2, Vec3};
+pub use glam::{Vec2, Vec3, Vec4};
 
 /// A ray `r(t) = org + t·dir`, valid for `tnear < t < tfar`.
 ///

@@ -13,10 +13,23 @@
 //! L_e = 0 on the back of a one-sided emitter.
 //! ```
 //!
+//! **Texture filtering** (ray cones, Akenine-Möller et al., "Texture Level of Detail
+//! Strategies for Real-Time Ray Tracing", Ray Tracing Gems ch. 20): a ray whose cone is
+//! `footprint` wide at the hit covers `footprint/|n_g·wo|` along the surface, which is
+//! `width = Δ·footprint/|n_g·wo|` in a texture coordinate set's units, `Δ = √(uv area / world
+//! area)` of the hit triangle ([`SurfacePoint::uv_density`]); a texture of `W × H` texels is
+//! read at level of detail `λ = log₂(width·√(W·H))` ([`crate::material::TextureSlot::at`],
+//! trilinear in its mip pyramid). The path tracer gives camera rays the camera's cone
+//! ([`crate::camera::Camera::ray_cone`]) and every later vertex a point (`footprint` 0: the
+//! full-resolution bilinear lookup), as glossy and diffuse bounces average texels anyway.
+//! Textures filtered so: base colour, metallic-roughness, emissive, and a lecture material's
+//! image texture; normal maps are read at full resolution ([`crate::surface`]).
+//!
 //! The Whitted integrator does not come here: it shades the lecture fields of every material
 //! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).
 
 use crate::bsdf::{self, Bsdf, Frame, LectureParams};
+use crate::material::{TexCoords, Texture};
 use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
@@ -42,13 +55,18 @@ pub struct Shading {
 /// The BSDF, emission and volume of `sp` seen along `wo` (towards the viewer); `footprint`
 /// is the ray's width at the hit (world units; 0: a point sample). The material must exist:
 /// the scene is checked before rendering.
-pub fn shade_at(scene: &Scene, sp: &SurfacePoint, _wo: Vec3, _footprint: f32) -> Shading {
+pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32) -> Shading {
     let m = &scene.materials[sp.material as usize];
+    let coords = tex_coords(sp, wo, footprint);
     let frame = Frame::from_normal(sp.ns);
     let one_sided_back = m.emission_one_sided && !sp.front_face;
     let Some(pbr) = m.pbr.as_deref() else {
+        let albedo = match &m.diffuse {
+            Texture::Image(_) if footprint > 0.0 => m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color,
+            _ => sp.albedo,
+        };
         let params = LectureParams {
-            albedo: sp.albedo,
+            albedo,
             specular: m.specular,
             shininess: m.shininess,
             mirror: m.mirror,
@@ -60,13 +78,24 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, _wo: Vec3, _footprint: f32) ->
         return Shading { bsdf, emission, volume: None };
     };
     if pbr.unlit {
-        let base = pbr.base_color_at(sp.uv, sp.color);
+        let base = pbr.base_color_at(coords, sp.color);
         let bsdf = Bsdf::new(frame, sp.ng, sp.front_face);
         return Shading { bsdf, emission: base, volume: None };
     }
-    let params = pbr.params_at(sp.uv, sp.color);
+    let params = pbr.params_at(coords, sp.color);
     let bsdf = bsdf::gltf(&params, frame, sp.ng, sp.front_face);
-    let emission = if one_sided_back { Vec3::ZERO } else { pbr.emission_at(sp.uv) };
+    let emission = if one_sided_back { Vec3::ZERO } else { pbr.emission_at(coords) };
     let volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
     Shading { bsdf, emission, volume }
+}
+
+/// Where `sp`'s textures are read for a ray from direction `wo` whose cone is `footprint` wide
+/// there (module header): its texture coordinates and the footprint's width in each set's units.
+pub fn tex_coords(sp: &SurfacePoint, wo: Vec3, footprint: f32) -> TexCoords {
+    if !(footprint > 0.0) {
+        return sp.uv.into();
+    }
+    let cos = sp.ng.dot(wo.normalize_or_zero()).abs().max(1e-6);
+    let along = footprint / cos;
+    TexCoords { uv: sp.uv, width: sp.uv_density.map(|d| d * along) }
 }

@@ -25,10 +25,17 @@
 //! the ray came from: whether a ray enters or leaves an object is decided by the geometric
 //! normal alone. Where an interpolated `ns` still faces away from the viewer (near
 //! silhouettes of coarse meshes) it is replaced by `ng`.
+//!
+//! Normal maps: where the material has a `normalTexture` and the mesh tangents, `ns` is the
+//! mapped normal ([`crate::normal_map`]: the interpolated normal perturbed in its tangent
+//! frame, then flipped with `ng`), kept so that the viewer's mirror direction leaves the
+//! geometric surface (Cycles' rule, [`normal_map::valid_reflection`]). Every integrator, and
+//! the `normal` pass, see that normal.
 
 use crate::accel::Hit;
 use crate::geometry::triangle;
-use crate::math::{Ray, Vec2, Vec3};
+use crate::math::{Ray, Vec2, Vec3, Vec4};
+use crate::normal_map;
 use crate::scene::{GeomKind, Scene};
 
 /// The shading data of one hit.
@@ -55,6 +62,10 @@ pub struct SurfacePoint {
     pub color: Vec3,
     /// The ray parameter of the hit (on triangles re-solved in f64, see the module docs).
     pub t: f32,
+    /// Texture-coordinate units per unit of length on the triangle, per set:
+    /// `√(uv area / world area)` (Δ₀ of ray-cone texture LOD, [`crate::shading`]); 0 where
+    /// the surface has no texture coordinates.
+    pub uv_density: [f32; 2],
 }
 
 /// `(1 − u − v)·q0 + u·q1 + v·q2`.
@@ -85,14 +96,16 @@ impl SurfacePoint {
     /// integrator checks the scene before tracing).
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let prim = hit.prim_id as usize;
-        let (p, ng_outward, ns, colour, uv, material, t) = match scene.geom_kind(hit.geom_id) {
+        let (p, ng_outward, ns, colour, (uv, uv_density), material, t, tangent) = match scene.geom_kind(hit.geom_id) {
             GeomKind::Mesh(m) => {
                 let mesh = &scene.meshes[m as usize];
                 let idx = mesh.indices[prim].map(|i| i as usize);
                 let corners = idx.map(|i| mesh.positions[i]);
                 let normals = mesh.normals.as_ref().map(|n| idx.map(|i| n[i]));
-                let (p, ng, ns, colour, uv, t) = on_triangle(mesh, ray, hit, idx, corners, normals, false);
-                (p, ng, ns, colour, uv, mesh.material_of(prim), t)
+                let tangents = mesh.tangents.as_ref().map(|t| idx.map(|i| t[i]));
+                let (p, ng, ns, colour, uv, t, tangent) =
+                    on_triangle(mesh, ray, hit, idx, corners, normals, tangents, false);
+                (p, ng, ns, colour, uv, mesh.material_of(prim), t, tangent)
             }
             GeomKind::Instance(k) => {
                 // The triangle as flattening stores it (see `crate::scene::instance`).
@@ -105,38 +118,63 @@ impl SurfacePoint {
                 }
                 let corners = idx.map(|i| inst.transform.point(mesh.positions[i]));
                 let normals = mesh.normals.as_ref().map(|n| idx.map(|i| inst.transform.normal(n[i])));
-                let (p, ng, ns, colour, uv, t) = on_triangle(mesh, ray, hit, idx, corners, normals, swapped);
-                (p, ng, ns, colour, uv, inst.material_of(mesh, prim), t)
+                let tangents = mesh.tangents.as_ref().map(|t| idx.map(|i| inst.transform.tangent(t[i])));
+                let (p, ng, ns, colour, uv, t, tangent) =
+                    on_triangle(mesh, ray, hit, idx, corners, normals, tangents, swapped);
+                (p, ng, ns, colour, uv, inst.material_of(mesh, prim), t, tangent)
             }
             GeomKind::Spheres => {
                 let s = &scene.spheres[prim];
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
-                (s.center + s.radius * n, n, n, Vec3::ONE, [Vec2::ZERO; 2], s.material, hit.t)
+                let uv = ([Vec2::ZERO; 2], [0.0; 2]);
+                (s.center + s.radius * n, n, n, Vec3::ONE, uv, s.material, hit.t, Vec4::ZERO)
             }
             GeomKind::Planes => {
                 let pl = &scene.planes[prim];
                 let x = ray.at(hit.t);
                 let p = x - (pl.normal.dot(x) - pl.dist) * pl.normal;
-                (p, pl.normal, pl.normal, Vec3::ONE, [Vec2::ZERO; 2], pl.material, hit.t)
+                (p, pl.normal, pl.normal, Vec3::ONE, ([Vec2::ZERO; 2], [0.0; 2]), pl.material, hit.t, Vec4::ZERO)
             }
         };
         // A degenerate triangle (zero area) has no normal of its own: face the ray.
         let ng_outward = if ng_outward == Vec3::ZERO { -ray.dir.normalize() } else { ng_outward };
         let ns = if ns == Vec3::ZERO { ng_outward } else { ns };
         let ns = if ns.dot(ng_outward) < 0.0 { -ns } else { ns };
+        let mapped = mapped_normal(scene, material, ns, tangent, uv);
         let front_face = ray.dir.dot(ng_outward) < 0.0;
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
-        let ns = if ns.dot(ray.dir) >= 0.0 { ng } else { ns };
+        let ns = match mapped {
+            Some(n) => normal_map::valid_reflection(ng, -ray.dir.normalize(), if front_face { n } else { -n }),
+            None if ns.dot(ray.dir) >= 0.0 => ng,
+            None => ns,
+        };
         let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv, color: colour, t }
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv, color: colour, t, uv_density }
     }
 }
 
-/// Point, unit geometric normal, shading normal, colour, texture coordinates and `t` of `hit`
-/// on the world-space triangle `corners` (vertex indices `idx` into `mesh`, world-space vertex
-/// normals `normals`), with `t, u, v` re-solved on it. `swapped`: the corners are `p0 p2 p1`
+/// Both texture coordinate sets at a hit and their densities ([`SurfacePoint::uv_density`]).
+type Uvs = ([Vec2; 2], [f32; 2]);
+
+/// The normal-mapped shading normal at a point of `material` whose interpolated normal
+/// (on the outward side) is `n`, tangent `tangent` and texture coordinates `uv`, if the
+/// material has a normal map and the point a tangent ([`crate::normal_map`]).
+fn mapped_normal(scene: &Scene, material: u32, n: Vec3, tangent: Vec4, uv: [Vec2; 2]) -> Option<Vec3> {
+    if tangent == Vec4::ZERO {
+        return None;
+    }
+    let pbr = scene.materials[material as usize].pbr.as_deref()?;
+    let slot = pbr.normal_texture.as_ref()?;
+    normal_map::perturb(n, tangent, normal_map::tangent_space_normal(slot.at(uv), pbr.normal_scale))
+}
+
+/// Point, unit geometric normal, shading normal, colour, texture coordinates, `t` and
+/// interpolated tangent of `hit` on the world-space triangle `corners` (vertex indices `idx`
+/// into `mesh`, world-space vertex normals `normals` and tangents `tangents`), with `t, u, v`
+/// re-solved on it. `swapped`: the corners are `p0 p2 p1`
 /// of the triangle the backend hit, so its `u, v` trade places (used only if the re-solve
 /// fails, for a ray in the triangle's plane).
+#[allow(clippy::too_many_arguments)] // the hit, its triangle and its per-vertex data
 fn on_triangle(
     mesh: &crate::scene::Mesh,
     ray: &Ray,
@@ -144,13 +182,26 @@ fn on_triangle(
     idx: [usize; 3],
     corners: [Vec3; 3],
     normals: Option<[Vec3; 3]>,
+    tangents: Option<[Vec4; 3]>,
     swapped: bool,
-) -> (Vec3, Vec3, Vec3, Vec3, [Vec2; 2], f32) {
+) -> (Vec3, Vec3, Vec3, Vec3, Uvs, f32, Vec4) {
     let (u, v) = if swapped { (hit.v, hit.u) } else { (hit.u, hit.v) };
     let h = triangle::resolve_f64(ray.org, ray.dir, corners).unwrap_or(triangle::TriangleHit { t: hit.t, u, v });
     let p = barycentric(corners, h.u, h.v);
     let ng = triangle::normal(corners[0], corners[1], corners[2]).normalize_or_zero();
     let ns = normals.map_or(Vec3::ZERO, |n| barycentric(n, h.u, h.v));
     let colour = mesh.colors.as_ref().map_or(Vec3::ONE, |c| barycentric(idx.map(|i| c[i]), h.u, h.v));
-    (p, ng, ns.normalize_or_zero(), colour, texture_coordinates(mesh, idx, h.u, h.v), h.t)
+    let area = (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
+    let density = |set: &Option<Vec<Vec2>>| {
+        let t = set.as_ref().map(|t| idx.map(|i| t[i]));
+        t.map_or(0.0, |t| {
+            let uv_area = (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
+            if area > 0.0 && uv_area.is_finite() { (uv_area / area).sqrt() } else { 0.0 }
+        })
+    };
+    let d0 = density(&mesh.uvs);
+    let d1 = if mesh.uvs1.is_some() { density(&mesh.uvs1) } else { d0 };
+    let tangent = tangents.map_or(Vec4::ZERO, |t| (1.0 - h.u - h.v) * t[0] + h.u * t[1] + h.v * t[2]);
+    let uv = texture_coordinates(mesh, idx, h.u, h.v);
+    (p, ng, ns.normalize_or_zero(), colour, (uv, [d0, d1]), h.t, tangent)
 }

@@ -18,6 +18,14 @@
 //!   to texel indices, so bilinear filtering at an edge wraps the same way.
 //! - **Bilinear filtering**: the four texels around `(u·W − ½, (1 − v)·H − ½)` weighted by the
 //!   fractional parts, as OpenGL's `GL_LINEAR` does.
+//! - **Mip-mapping** (camera rays of the path tracer): a decoded image keeps a pyramid of
+//!   box-filtered levels ([`Image::levels`]), level `k + 1` of size `⌊W_k/2⌋ × ⌊H_k/2⌋` (at
+//!   least 1), each texel the area-weighted mean of the level-`k` texels its square covers
+//!   (so every level keeps the image's mean), down to 1 × 1; it costs a third of the texels
+//!   again and is counted with them. A lookup at level of detail `λ`
+//!   ([`ImageTexture::lookup_lod`]) is trilinear: bilinear in levels `⌊λ⌋` and `⌊λ⌋ + 1`,
+//!   mixed by `λ − ⌊λ⌋`, `λ` clamped to the pyramid; `λ ≤ 0` is the bilinear lookup of the
+//!   image itself. Which `λ` a ray asks for: [`crate::shading`] (ray cones).
 //!
 //! Texture memory is shared: [`open_shared`] decodes each file once and materials hold an
 //! [`Arc`] to the same texels.
@@ -71,6 +79,19 @@ pub struct Image {
     pub texels: Vec<Vec3>,
     /// The texels' bytes, counted against the memory budget while the image lives.
     held: Held,
+    /// The mip pyramid's levels 1, 2, … down to 1 × 1 (empty for an image that is not a
+    /// material's texture, e.g. an environment map), see the module header.
+    pub levels: Vec<Level>,
+    /// The levels' bytes, counted like the texels'.
+    levels_held: Held,
+}
+
+/// One level of an image's mip pyramid: `width·height` texels, row-major from the top-left.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Level {
+    pub width: usize,
+    pub height: usize,
+    pub texels: Vec<Vec3>,
 }
 
 /// How an image's channels encode their values.
@@ -138,6 +159,8 @@ impl Image {
             height: self.height,
             texels: Vec::new(),
             held: Held::nothing(),
+            levels: Vec::new(),
+            levels_held: Held::nothing(),
         }
     }
 
@@ -149,7 +172,15 @@ impl Image {
         }
         let held =
             Held::take(texels.len() as u64 * TEXEL_BYTES, format!("{name}: the texels")).map_err(|e| e.to_string())?;
-        Ok(Image { name: name.to_string(), width, height, texels, held })
+        Ok(Image {
+            name: name.to_string(),
+            width,
+            height,
+            texels,
+            held,
+            levels: Vec::new(),
+            levels_held: Held::nothing(),
+        })
     }
 
     /// Decodes a PNG or JPEG file's bytes (the format is read from the bytes, not a file
@@ -239,7 +270,37 @@ impl Image {
             image::ColorType::Rgb16 => widen::<6>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
             _ => widen::<8>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
         }
-        Ok(Image { name: name.to_string(), width: width as usize, height: height as usize, texels, held })
+        let image = Image {
+            name: name.to_string(),
+            width: width as usize,
+            height: height as usize,
+            texels,
+            held,
+            levels: Vec::new(),
+            levels_held: Held::nothing(),
+        };
+        image.with_levels()
+    }
+
+    /// The image with its mip pyramid (module header), whose bytes are taken from the memory
+    /// budget first.
+    pub fn with_levels(mut self) -> Result<Image, String> {
+        let (mut w, mut h, mut bytes) = (self.width, self.height, 0u64);
+        while w > 1 || h > 1 {
+            (w, h) = ((w / 2).max(1), (h / 2).max(1));
+            bytes += (w * h) as u64 * TEXEL_BYTES;
+        }
+        let what = format!("{}: its mip levels", self.name);
+        self.levels_held = Held::take(bytes, what).map_err(|e| e.to_string())?;
+        let mut levels: Vec<Level> = Vec::new();
+        let (mut w, mut h) = (self.width, self.height);
+        while w > 1 || h > 1 {
+            let next = halve(w, h, levels.last().map_or(&self.texels, |l| &l.texels));
+            (w, h) = (next.width, next.height);
+            levels.push(next);
+        }
+        self.levels = levels;
+        Ok(self)
     }
 
     /// Reads and decodes the image file at `path` (a regular file of at most
@@ -252,11 +313,6 @@ impl Image {
         Image::decode_as(&bytes, &path.display().to_string(), encoding)
     }
 
-    #[inline]
-    fn texel(&self, i: usize, j: usize) -> Vec3 {
-        self.texels[j * self.width + i]
-    }
-
     /// The mean texel (summed in f64).
     pub fn mean(&self) -> Vec3 {
         if self.texels.is_empty() {
@@ -266,10 +322,57 @@ impl Image {
         (sum / self.texels.len() as f64).as_vec3()
     }
 
-    /// Bytes the texels take.
+    /// Bytes the texels and the mip levels take.
     pub fn size_bytes(&self) -> usize {
-        self.texels.len() * std::mem::size_of::<Vec3>()
+        (self.texels.len() + self.levels.iter().map(|l| l.texels.len()).sum::<usize>()) * std::mem::size_of::<Vec3>()
     }
+
+    /// Level `k` of the pyramid (0: the image) as its size and texels, clamped to the last.
+    fn level(&self, k: usize) -> (usize, usize, &[Vec3]) {
+        match k.min(self.levels.len()) {
+            0 => (self.width, self.height, &self.texels),
+            k => {
+                let l = &self.levels[k - 1];
+                (l.width, l.height, &l.texels)
+            }
+        }
+    }
+}
+
+/// The next level below a `w × h` level: `⌊w/2⌋ × ⌊h/2⌋` (at least 1), each texel the
+/// area-weighted mean of the texels its square covers (a box filter, separable: rows, then
+/// columns; summed in f64).
+fn halve(w: usize, h: usize, texels: &[Vec3]) -> Level {
+    let (w2, h2) = ((w / 2).max(1), (h / 2).max(1));
+    // The weights of source indices for each target index: the overlap of source cell
+    // [k, k + 1) with target cell [i·n/m, (i + 1)·n/m), over n/m.
+    let weights = |n: usize, m: usize| -> Vec<Vec<(usize, f64)>> {
+        let step = n as f64 / m as f64;
+        (0..m)
+            .map(|i| {
+                let (a, b) = (i as f64 * step, (i + 1) as f64 * step);
+                (a.floor() as usize..(b.ceil() as usize).min(n))
+                    .map(|k| (k, ((b.min(k as f64 + 1.0) - a.max(k as f64)) / step)))
+                    .filter(|&(_, weight)| weight > 0.0)
+                    .collect()
+            })
+            .collect()
+    };
+    let (wx, wy) = (weights(w, w2), weights(h, h2));
+    let mut rows = vec![glam::DVec3::ZERO; w2 * h];
+    for y in 0..h {
+        for (i, ws) in wx.iter().enumerate() {
+            rows[y * w2 + i] = ws.iter().map(|&(k, weight)| texels[y * w + k].as_dvec3() * weight).sum();
+        }
+    }
+    let mut out = Vec::with_capacity(w2 * h2);
+    for ws in &wy {
+        for i in 0..w2 {
+            let t: glam::DVec3 = ws.iter().map(|&(k, weight)| rows[k * w2 + i] * weight).sum();
+            out.push(t.as_vec3());
+        }
+    }
+    Level { width: w2, height: h2, texels: out }
 }
 
 /// Widens `n` encoded pixels of `B` bytes, which fill the tail of `buffer` (`n` texels of
@@ -301,21 +404,43 @@ pub struct ImageTexture {
 impl ImageTexture {
     /// The filtered, linear albedo at texture coordinates `uv` (see the module header).
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
-        let img = &*self.image;
+        self.factor * self.bilinear(0, uv)
+    }
+
+    /// The trilinear lookup at level of detail `lod` (`log₂` of the footprint's width in
+    /// texels; see the module header): the bilinear lookup where `lod ≤ 0`.
+    pub fn lookup_lod(&self, uv: Vec2, lod: f32) -> Vec3 {
+        let last = self.image.levels.len();
+        if !(lod > 0.0) || last == 0 {
+            return self.lookup(uv);
+        }
+        let lod = lod.min(last as f32);
+        let k = lod.floor();
+        let f = lod - k;
+        let k = k as usize;
+        let a = self.bilinear(k, uv);
+        let mixed = if f > 0.0 { a * (1.0 - f) + self.bilinear(k + 1, uv) * f } else { a };
+        self.factor * mixed
+    }
+
+    /// The bilinear lookup in level `k` of the pyramid, without the factor.
+    fn bilinear(&self, k: usize, uv: Vec2) -> Vec3 {
+        let (width, height, texels) = self.image.level(k);
         // Continuous texel coordinates, texel centres at integers + ½ from the top-left.
-        let x = uv.x as f64 * img.width as f64 - 0.5;
-        let y = (1.0 - uv.y as f64) * img.height as f64 - 0.5;
+        let x = uv.x as f64 * width as f64 - 0.5;
+        let y = (1.0 - uv.y as f64) * height as f64 - 0.5;
         if !(x.is_finite() && y.is_finite()) {
             return Vec3::ZERO;
         }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let (i0, i1) = (self.wrap_u.index(x0, img.width), self.wrap_u.index(x0 + 1, img.width));
-        let (j0, j1) = (self.wrap_v.index(y0, img.height), self.wrap_v.index(y0 + 1, img.height));
-        let top = img.texel(i0, j0) * (1.0 - fx) + img.texel(i1, j0) * fx;
-        let bottom = img.texel(i0, j1) * (1.0 - fx) + img.texel(i1, j1) * fx;
-        self.factor * (top * (1.0 - fy) + bottom * fy)
+        let (i0, i1) = (self.wrap_u.index(x0, width), self.wrap_u.index(x0 + 1, width));
+        let (j0, j1) = (self.wrap_v.index(y0, height), self.wrap_v.index(y0 + 1, height));
+        let texel = |i: usize, j: usize| texels[j * width + i];
+        let top = texel(i0, j0) * (1.0 - fx) + texel(i1, j0) * fx;
+        let bottom = texel(i0, j1) * (1.0 - fx) + texel(i1, j1) * fx;
+        top * (1.0 - fy) + bottom * fy
     }
 }
 
@@ -397,6 +522,51 @@ mod tests {
         assert_eq!(srgb_to_linear(1.0), 1.0);
         assert!((srgb_to_linear(0.5) - 0.214_041_140_482_232_55).abs() < 1e-15);
         assert!((srgb_to_linear(0.04045) - 0.04045 / 12.92).abs() < 1e-17);
+    }
+
+    /// A `w × h` checkerboard of cells of `cell` texels, white and black.
+    fn checker(w: usize, h: usize, cell: usize) -> ImageTexture {
+        let texels = (0..w * h).map(|k| if (k % w / cell + k / w / cell) % 2 == 0 { Vec3::ONE } else { Vec3::ZERO });
+        let image = Image::from_texels("checker", w, h, texels.collect()).unwrap().with_levels().unwrap();
+        ImageTexture { image: Arc::new(image), wrap_u: Wrap::Repeat, wrap_v: Wrap::Repeat, factor: Vec3::ONE }
+    }
+
+    #[test]
+    fn mip_levels_halve_and_keep_the_mean() {
+        for (w, h) in [(64, 64), (7, 5), (1, 9), (10, 3)] {
+            let t = checker(w, h, 2);
+            let mean = t.image.mean();
+            let sizes: Vec<_> = t.image.levels.iter().map(|l| (l.width, l.height)).collect();
+            assert_eq!(sizes.last(), Some(&(1, 1)), "{w} × {h}: {sizes:?}");
+            assert_eq!(sizes[0], ((w / 2).max(1), (h / 2).max(1)));
+            for l in &t.image.levels {
+                let sum: Vec3 = l.texels.iter().sum();
+                let m = sum / l.texels.len() as f32;
+                assert!(
+                    (m - mean).abs().max_element() < 1e-5,
+                    "{w} × {h}, level {} × {}: {m} vs {mean}",
+                    l.width,
+                    l.height
+                );
+            }
+        }
+        // 64 × 64 texels and 1/3 as many again.
+        assert_eq!(checker(64, 64, 8).image.size_bytes(), (4096 + 1365) * 12);
+    }
+
+    #[test]
+    fn trilinear_lookup() {
+        let t = checker(64, 64, 8);
+        let uv = Vec2::new(0.3, 0.7);
+        // λ ≤ 0 is the bilinear lookup, bit for bit; the last level is the mean.
+        assert_eq!(t.lookup_lod(uv, 0.0), t.lookup(uv));
+        assert_eq!(t.lookup_lod(uv, -3.0), t.lookup(uv));
+        assert_eq!(t.lookup_lod(uv, 6.0), Vec3::splat(0.5));
+        assert_eq!(t.lookup_lod(uv, 40.0), Vec3::splat(0.5));
+        // Level 3 (8 × 8) holds one cell per texel; level 4 (4 × 4) two by two cells: 0.5.
+        assert_eq!(t.lookup_lod(uv, 4.0), Vec3::splat(0.5));
+        let (a, b) = (t.lookup_lod(uv, 3.0), t.lookup_lod(uv, 4.0));
+        assert!((t.lookup_lod(uv, 3.25) - (0.75 * a + 0.25 * b)).abs().max_element() < 1e-6);
     }
 
     #[test]

@@ -80,6 +80,8 @@ pub struct PathTracer<'a, A: Accel> {
     lights: PathLights<'a>,
     /// Whether the light-path passes are written (the split costs a BSDF evaluation per sample).
     split: bool,
+    /// The camera rays' cone, for texture filtering at the first hit ([`crate::shading`]).
+    cone: crate::camera::RayCone,
 }
 
 /// A pixel's Sobol sequence, as the tile loop draws the camera ray from it.
@@ -142,7 +144,10 @@ impl<A: Accel> Integrator for PathTracer<'_, A> {
 impl<'a, A: Accel> PathTracer<'a, A> {
     /// The path tracer of `scene`, tracing through `accel`.
     pub fn new(scene: &'a Scene, accel: &'a A) -> Self {
-        PathTracer { scene, accel, lights: PathLights::new(scene), split: scene.output.passes.any_light() }
+        let img = &scene.image;
+        let camera = crate::camera::Camera::new(&scene.camera, img.width, img.height);
+        let cone = camera.map_or(Default::default(), |c| c.ray_cone());
+        PathTracer { scene, accel, lights: PathLights::new(scene), split: scene.output.passes.any_light(), cone }
     }
 
     /// `c` added to `l`, clamped when it is indirect light and a clamp is set (module docs);
@@ -226,7 +231,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             };
             let sp = SurfacePoint::new(scene, &ray, &h);
             let wo = -ray.dir;
-            let shading = shade_at(scene, &sp, wo, 0.0);
+            // Camera rays filter textures by their cone; later vertices read them at a point.
+            let footprint = if depth == 0 { self.cone.width_at(sp.t * ray.dir.length()) } else { 0.0 };
+            let shading = shade_at(scene, &sp, wo, footprint);
             if depth == 0 {
                 first = Some(FirstHit::new(&sp, &h, shading.bsdf.colors()));
             }

@@ -51,7 +51,6 @@
 
 use std::collections::HashSet;
 
-use crate::material::Texture;
 use crate::output::passes::Pass;
 use crate::scene::Scene;
 pub use crate::sys::memory::{BASE_BYTES, BVH_BYTES_PER_INSTANCE, Limit, default_limit, megabytes, parse_size};
@@ -121,6 +120,7 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
                 + m.colors.as_ref().map_or(0, |v| size(v.len(), 12))
                 + m.uvs.as_ref().map_or(0, |v| size(v.len(), 8))
                 + m.uvs1.as_ref().map_or(0, |v| size(v.len(), 8))
+                + m.tangents.as_ref().map_or(0, |v| size(v.len(), 16))
                 + m.triangle_materials.as_ref().map_or(0, |v| size(v.len(), 4))
                 + text(&m.name)
         })
@@ -135,12 +135,9 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
     let textures = scene
         .materials
         .iter()
-        .filter_map(|m| match &m.diffuse {
-            Texture::Image(t) => {
-                seen.insert(std::sync::Arc::as_ptr(&t.texture.image)).then(|| t.texture.image.size_bytes() as u64)
-            }
-            _ => None,
-        })
+        .flat_map(|m| m.images())
+        .filter(|&image| seen.insert(std::sync::Arc::as_ptr(image)))
+        .map(|image| image.size_bytes() as u64)
         .sum();
     let triangles = meshes.clone().map(|m| m.indices.len() as u64).sum::<u64>();
     let vertices = meshes.clone().map(|m| m.positions.len() as u64).sum::<u64>();

@@ -156,6 +156,11 @@ impl Feed {
             self.u64(2);
             self.bulk(uvs1);
         }
+        // Likewise (tagged 3).
+        if let Some(tangents) = &m.tangents {
+            self.u64(3);
+            self.bulk(tangents);
+        }
     }
 }
 

@@ -1,6 +1,6 @@
 //! Triangle meshes in world space, with the optional per-vertex data shading interpolates.
 
-use crate::math::{Aabb, Vec2, Vec3};
+use crate::math::{Aabb, Vec2, Vec3, Vec4};
 
 /// A triangle mesh: f32 positions, u32 index triples, and optional per-vertex normals,
 /// colours and texture coordinates (each, when present, as long as `positions`).
@@ -16,6 +16,10 @@ pub struct Mesh {
     /// A second set of texture coordinates (glTF's `TEXCOORD_1`), read by the textures that
     /// ask for it ([`crate::material::TextureSlot::tex_coord`]).
     pub uvs1: Option<Vec<Vec2>>,
+    /// Tangents for normal mapping (glTF's `TANGENT`, or MikkTSpace's): `xyz` the unit
+    /// tangent along increasing `u`, `w` = ±1 the bitangent's sign, `B = w·(N × T)`. Kept only
+    /// for meshes whose material has a normal map ([`crate::normal_map`]).
+    pub tangents: Option<Vec<Vec4>>,
     /// Material of every triangle, unless `triangle_materials` says otherwise.
     pub material: u32,
     /// Material per triangle (OBJ `usemtl`), as long as `indices` when present.
@@ -53,6 +57,7 @@ impl Mesh {
             ("colours", self.colors.as_ref().map(Vec::len)),
             ("texture coordinates", self.uvs.as_ref().map(Vec::len)),
             ("second texture coordinates", self.uvs1.as_ref().map(Vec::len)),
+            ("tangents", self.tangents.as_ref().map(Vec::len)),
         ];
         for (what, len) in per_vertex {
             if let Some(len) = len.filter(|&l| l != n) {

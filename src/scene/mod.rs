@@ -14,6 +14,7 @@ pub mod magnitude;
 pub mod mesh;
 pub mod procedural;
 pub mod subdivide;
+pub mod tangents;
 pub mod transform;
 
 pub use instance::Instance;

@@ -44,6 +44,7 @@ fn once(mesh: &Mesh) -> Mesh {
         colors: mesh.colors.clone(),
         uvs: mesh.uvs.clone(),
         uvs1: mesh.uvs1.clone(),
+        tangents: mesh.tangents.clone(),
         material: mesh.material,
         triangle_materials: mesh.triangle_materials.as_ref().map(|m| m.iter().flat_map(|&x| [x; 4]).collect()),
     };
@@ -62,6 +63,10 @@ fn once(mesh: &Mesh) -> Mesh {
             if let Some(c) = &mut out.colors {
                 let mid = mid3(c);
                 c.push(mid);
+            }
+            if let Some(t) = &mut out.tangents {
+                let mid = (0.5 * (t[i].truncate() + t[j].truncate())).normalize_or_zero();
+                t.push(mid.extend(t[i].w));
             }
             for t in [&mut out.uvs, &mut out.uvs1].into_iter().flatten() {
                 let mid: Vec2 = 0.5 * (t[i] + t[j]);
@@ -91,6 +96,7 @@ mod tests {
             colors: Some(vec![Vec3::ZERO, Vec3::ONE, Vec3::X, Vec3::Y]),
             uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE]),
             uvs1: None,
+            tangents: None,
             material: 3,
             triangle_materials: Some(vec![5, 6]),
         }

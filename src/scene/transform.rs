@@ -14,7 +14,7 @@ use glam::{DAffine3, DMat3, DMat4, DVec3};
 
 use super::Mesh;
 use crate::geometry::{Plane, Sphere};
-use crate::math::Vec3;
+use crate::math::{Vec3, Vec4};
 
 /// An affine transform `p ↦ linear·p + translation` built from scale, rotation and translation
 /// (or from a matrix).
@@ -109,6 +109,15 @@ impl Transform {
         self.normal_f64(n.as_dvec3()).as_vec3()
     }
 
+    /// The transformed tangent of normal mapping (`xyz` a direction, transformed by the linear
+    /// part and normalised, in f64; `w` the bitangent's sign, negated under a mirroring
+    /// transform, since for a similarity `L` the bitangent `L·(n × t)` is
+    /// `sign(det L)·(L⁻ᵀ·n × L·t)` up to length).
+    pub fn tangent(&self, t: Vec4) -> Vec4 {
+        let xyz = self.vector_f64(t.truncate().as_dvec3()).normalize_or_zero().as_vec3();
+        xyz.extend(if self.flips_orientation() { -t.w } else { t.w })
+    }
+
     /// The factor every length is multiplied by, if the transform scales every direction by
     /// the same factor (`Lᵀ·L = k²·I`, up to sign: a mirror image of a sphere is a sphere).
     pub fn uniform_scale(&self) -> Option<f64> {
@@ -146,6 +155,11 @@ impl Transform {
         if let Some(normals) = &mut mesh.normals {
             for n in normals {
                 *n = self.normal(*n);
+            }
+        }
+        if let Some(tangents) = &mut mesh.tangents {
+            for t in tangents {
+                *t = self.tangent(*t);
             }
         }
         if self.flips_orientation() {

@@ -8,7 +8,9 @@
 //!   triangle when they differ); other modes are skipped with a warning naming the primitive.
 //!   Indexed and non-indexed primitives, sparse accessors ([`gltf_sparse`]), morph targets at
 //!   their default weights ([`gltf_morph`]), `NORMAL`, `TEXCOORD_0` (its `v` turned into
-//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB; alpha ignored).
+//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB; alpha ignored). Where a
+//!   primitive's material has a `normalTexture`, its `TANGENT` (ignored, as glTF asks, when it
+//!   has no `NORMAL`), else MikkTSpace tangents ([`crate::scene::tangents`]).
 //! - **Nodes**: the node hierarchy with TRS or matrix transforms, composed in f64; each node
 //!   with a mesh is a [`MeshNode`] (the mesh and the node's object-to-world transform), one
 //!   per instance of `EXT_mesh_gpu_instancing` ([`gltf_instancing`]), so a mesh used by
@@ -46,7 +48,7 @@ use super::gltf_sparse;
 use crate::bsdf::PbrParams;
 use crate::light::Light;
 use crate::material::{Material, Pbr, TextureSlot};
-use crate::math::{Vec2, Vec3};
+use crate::math::{Vec2, Vec3, Vec4};
 use crate::scene::transform::Transform;
 use crate::scene::{CameraSpec, Mesh};
 use crate::texture::{Encoding, Image, ImageTexture, Wrap, open_shared_as};
@@ -467,6 +469,12 @@ struct Reader<'a> {
     instancing: &'a HashMap<usize, Instancing>,
 }
 
+/// `KHR_texture_transform`'s affine map of glTF texture coordinates (see `Reader::texture`).
+fn uv_transform([ou, ov]: [f32; 2], [su, sv]: [f32; 2], rotation: f32) -> [[f32; 3]; 2] {
+    let (sin, cos) = rotation.sin_cos();
+    [[cos * su, -sin * sv, ou], [sin * su, cos * sv, ov]]
+}
+
 /// The material of primitives that name none: strahl's default grey (glTF's own default, a
 /// rough white metal, has no Whitted counterpart).
 fn default_material() -> Material {
@@ -534,8 +542,8 @@ impl Reader<'_> {
                 self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
             out.emissive_texture = Some(slot);
         }
-        if material.normal_texture().is_some() {
-            self.warn(format!("{what}: normalTexture ignored (the interpolated normals are used)"));
+        if let Some(normal) = material.normal_texture() {
+            self.normal_texture(&normal, &mut out, what)?;
         }
         if material.occlusion_texture().is_some() {
             self.warn(format!("{what}: occlusionTexture ignored (the path tracer computes occlusion)"));
@@ -594,6 +602,29 @@ impl Reader<'_> {
         Ok(out)
     }
 
+    /// `normalTexture` (linear) with its `scale` and `KHR_texture_transform`, into `out`.
+    fn normal_texture(
+        &mut self,
+        normal: &gltf::material::NormalTexture,
+        out: &mut Pbr,
+        what: &str,
+    ) -> Result<(), String> {
+        let mut slot = self.texture(&normal.texture(), normal.tex_coord(), None, Encoding::Linear, what)?;
+        if let Some(value) = normal.extension_value("KHR_texture_transform") {
+            let t: gltf::json::extensions::texture::TextureTransform = serde_json::from_value(value.clone())
+                .map_err(|e| format!("{what}: normalTexture: KHR_texture_transform: {e}"))?;
+            let matrix = uv_transform(t.offset.0, t.scale.0, t.rotation.0);
+            if !matrix.iter().flatten().all(|x| x.is_finite()) {
+                return Err(format!("{what}: normalTexture: KHR_texture_transform has a value that is not finite"));
+            }
+            slot.transform = Some(matrix);
+            slot.tex_coord = t.tex_coord.unwrap_or(slot.tex_coord);
+        }
+        out.normal_texture = Some(slot);
+        out.normal_scale = normal.scale();
+        Ok(())
+    }
+
     /// Warns about each of `keys` (textures of extension `extension`) that `value` holds.
     fn warn_textures(&mut self, value: &serde_json::Value, extension: &str, keys: &[&str], what: &str) {
         for key in keys {
@@ -623,11 +654,7 @@ impl Reader<'_> {
         what: &str,
     ) -> Result<TextureSlot, String> {
         let tex_coord = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(tex_coord);
-        let matrix = transform.map(|t| {
-            let ([ou, ov], [su, sv], r) = (t.offset(), t.scale(), t.rotation());
-            let (sin, cos) = r.sin_cos();
-            [[cos * su, -sin * sv, ou], [sin * su, cos * sv, ov]]
-        });
+        let matrix = transform.map(|t| uv_transform(t.offset(), t.scale(), t.rotation()));
         if matrix.is_some_and(|m| !m.iter().flatten().all(|x| x.is_finite())) {
             return Err(format!(
                 "{what}: texture {}: KHR_texture_transform has a value that is not finite",
@@ -888,6 +915,9 @@ impl Reader<'_> {
         let (mut normals, mut colors, mut uvs, mut uvs1) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut any_normals, mut any_colors, mut any_uvs, mut any_uvs1) = (false, false, false, false);
         let mut materials = Vec::new();
+        // Tangents, for the primitives whose material has a normal map: `TANGENT`, or the
+        // triangles and texture coordinate set MikkTSpace computes them from.
+        let (mut tangents, mut any_tangents, mut mikktspace) = (Vec::new(), false, Vec::new());
         for primitive in mesh.primitives() {
             let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
             if !matches!(primitive.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
@@ -987,6 +1017,29 @@ impl Reader<'_> {
             let base = first as u32;
             out.indices.extend(triangles.into_iter().map(|t| t.map(|i| i + base)));
             let material = primitive.material().index().map_or(u32::MAX, |i| i as u32);
+            let normal_set = self.out.materials.get(material as usize).and_then(|m| m.pbr.as_deref());
+            let normal_set = normal_set.and_then(|p| p.normal_texture.as_ref()).map(|t| t.tex_coord.min(1));
+            match (normal_set, primitive.get(&gltf::Semantic::Tangents)) {
+                // Without NORMAL, glTF asks for flat normals and its TANGENT to be ignored.
+                (Some(_), Some(a)) if primitive.get(&gltf::Semantic::Normals).is_some() => {
+                    self.check_accessor(&a, &[DataType::F32], &[Dimensions::Vec4], &format!("{what} TANGENT"))?;
+                    if a.count() != n {
+                        return Err(format!("{what}: TANGENT has {} elements for {n} positions", a.count()));
+                    }
+                    tangents.extend(reader.read_tangents().into_iter().flatten().map(Vec4::from));
+                    any_tangents = true;
+                }
+                (Some(set), _) => {
+                    tangents.extend(std::iter::repeat_n(Vec4::ZERO, n));
+                    any_tangents = true;
+                    if primitive.get(&gltf::Semantic::TexCoords(set)).is_some() {
+                        mikktspace.push((what, triangles_before..out.indices.len(), set));
+                    } else {
+                        self.warn(format!("{what}: has no TEXCOORD_{set} for its normalTexture, which is ignored"));
+                    }
+                }
+                (None, _) => tangents.extend(std::iter::repeat_n(Vec4::ZERO, n)),
+            }
             materials.extend(std::iter::repeat_n(material, out.indices.len() - triangles_before));
         }
         if let Some(problem) = crate::scene::mesh::triangles_problem(&out.positions, &out.indices) {
@@ -1003,6 +1056,12 @@ impl Reader<'_> {
         out.colors = any_colors.then_some(colors);
         out.uvs = any_uvs.then_some(uvs);
         out.uvs1 = any_uvs1.then_some(uvs1);
+        out.tangents = any_tangents.then_some(tangents);
+        for (what, triangles, set) in mikktspace {
+            if !crate::scene::tangents::mikktspace(&mut out, triangles, set) {
+                self.warn(format!("{what}: MikkTSpace found no tangents; its normalTexture is ignored"));
+            }
+        }
         match materials.first() {
             Some(&first) if materials.iter().all(|&m| m == first) => out.material = first,
             Some(_) => out.triangle_materials = Some(materials),

@@ -1,0 +1,95 @@
+//! Ray-cone mip-mapping of camera rays (src/texture.rs, src/shading.rs): a checker-textured
+//! floor receding to the horizon, written by `tools/gltf/mip_assets.py` with pygltflib (not
+//! strahl's code), emitting its texture (no light, nothing reflected), rendered with one sample
+//! per pixel. Far pixels see many checker cells: their value must be the texture's mean, 0.5
+//! (without mip-mapping each sample reads one cell, 0 or 1). Near pixels see less than a texel:
+//! they keep the sharp bilinear lookup.
+//!
+//! The camera at (0, 1, 0) looks at (0, 0.5, −10) with a 40° vertical field of view over
+//! 96 rows: the horizon lies at row 48·(1 − 0.05/tan 20°) = 41.4. A pixel row `y` below it sees
+//! the floor at an angle α below the horizon, distance `d ≈ 1/sin α`; its ray cone is
+//! `d·γ` wide (`γ = 2 tan 20°/96`), `d·γ/sin α` along the floor, which the texture (a period of
+//! 16 m over 64 texels) divides into `4·d·γ/sin α` texels: level of detail
+//! `λ = log₂(4·d·γ/sin α)`, at least 4.07 on rows 42–46 (where level 4 and coarser hold 2 × 2
+//! cells per texel, exactly 0.5) and below −0.5 on rows 75–95.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{TempDir, channel, read_exr, strahl, text};
+
+const WIDTH: usize = 128;
+const HEIGHT: usize = 96;
+
+/// The asset's folder, written into `dir`; `None` (with a skip line) without pygltflib.
+fn assets(dir: &TempDir) -> Option<PathBuf> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/mip_assets.py");
+    let out = dir.path("assets");
+    let run = std::process::Command::new("python3").arg(&script).arg(&out).output();
+    match run {
+        Ok(o) if o.status.success() => Some(out),
+        Ok(o) if text(&o.stderr).contains("No module named") => {
+            common::skip("mip_maps: python3 has no pygltflib (pip install pygltflib)");
+            None
+        }
+        Ok(o) => panic!("mip_assets.py failed: {}", text(&o.stderr)),
+        Err(e) => {
+            common::skip(&format!("mip_maps: cannot run python3: {e}"));
+            None
+        }
+    }
+}
+
+/// The floor's red channel, one sample per pixel.
+fn render(dir: &TempDir, assets: &Path) -> Vec<f32> {
+    let toml = format!(
+        r#"
+[camera]
+eye = [0, 1, 0]
+target = [0, 0.5, -10]
+fov_deg = 40
+[image]
+width = {WIDTH}
+height = {HEIGHT}
+spp = 1
+max_depth = 1
+background = [0, 0, 0]
+[[objects]]
+type = "gltf"
+path = "{}"
+"#,
+        assets.join("checker_floor.gltf").display()
+    );
+    let scene = dir.write("scene.toml", toml);
+    let out = dir.path("out.exr");
+    let run = strahl(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--integrator", "path"]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let (w, h, channels) = read_exr(&out);
+    assert_eq!((w, h), (WIDTH, HEIGHT));
+    channel(&channels, "ViewLayer.Combined.R").to_vec()
+}
+
+#[test]
+fn far_pixels_show_the_texture_mean_and_near_ones_stay_sharp() {
+    let dir = TempDir::new("mip-maps-floor");
+    let Some(assets) = assets(&dir) else { return };
+    let r = render(&dir, &assets);
+    // The sky above the horizon is black.
+    assert!(r[..41 * WIDTH].iter().all(|&v| v == 0.0));
+    for y in 42..47 {
+        for x in 0..WIDTH {
+            let v = r[y * WIDTH + x];
+            assert!((v - 0.5).abs() < 1e-4, "far pixel ({x}, {y}) is {v}, not the texture's mean 0.5");
+        }
+    }
+    let near: Vec<f32> = r[75 * WIDTH..].to_vec();
+    let sharp = near.iter().filter(|&&v| v.abs() < 1e-6 || (v - 1.0).abs() < 1e-6).count();
+    assert!(
+        sharp as f64 >= 0.6 * near.len() as f64,
+        "only {sharp} of {} near pixels are a cell's own 0 or 1: the near floor is blurred",
+        near.len()
+    );
+    let mean = near.iter().map(|&v| v as f64).sum::<f64>() / near.len() as f64;
+    assert!((mean - 0.5).abs() < 0.15, "near mean {mean}");
+}

@@ -1,0 +1,88 @@
+"""Writes a glTF file with pygltflib (not strahl's code) for strahl's mip-mapping test
+(tests/mip_maps.rs):
+
+    python3 tools/gltf/mip_assets.py OUTDIR
+
+checker_floor.gltf: one quad, the floor y = 0 for x, z in [-HALF, HALF], facing +y, whose
+material emits its texture and reflects nothing (base colour 0, emissiveFactor 1,
+emissiveTexture): the 64 x 64 PNG checker.png (RGB, 8 bits) of 8 x 8 cells of 8 texels, white
+(255) and black (0), so its mean is 0.5 in linear units. Its texture coordinates are
+(x, z) / PERIOD, the sampler repeats, so a cell is PERIOD / 8 metres wide.
+"""
+
+import base64
+import os
+import struct
+import sys
+import zlib
+
+import pygltflib as g
+
+SIZE = 64
+CELL = 8
+PERIOD = 16.0
+HALF = 2000.0
+
+
+def png():
+    """The checker as an RGB PNG, written with zlib alone."""
+    rows = b""
+    for y in range(SIZE):
+        row = bytes(255 if (x // CELL + y // CELL) % 2 == 0 else 0 for x in range(SIZE) for _ in range(3))
+        rows += b"\x00" + row
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    ihdr = struct.pack(">IIBBBBB", SIZE, SIZE, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
+
+
+def data_uri(data, mime):
+    return f"data:{mime};base64," + base64.b64encode(data).decode()
+
+
+def main(out):
+    os.makedirs(out, exist_ok=True)
+    positions = [(-HALF, 0, HALF), (HALF, 0, HALF), (HALF, 0, -HALF), (-HALF, 0, -HALF)]
+    uvs = [(x / PERIOD, z / PERIOD) for x, _, z in positions]
+    indices = [0, 1, 2, 0, 2, 3]
+    blob = b"".join(struct.pack("<3f", *p) for p in positions)
+    blob += b"".join(struct.pack("<3f", 0, 1, 0) for _ in positions)
+    blob += b"".join(struct.pack("<2f", *t) for t in uvs)
+    blob += struct.pack("<6H", *indices)
+    views = [
+        g.BufferView(buffer=0, byteOffset=0, byteLength=48),
+        g.BufferView(buffer=0, byteOffset=48, byteLength=48),
+        g.BufferView(buffer=0, byteOffset=96, byteLength=32),
+        g.BufferView(buffer=0, byteOffset=128, byteLength=12),
+    ]
+    accessors = [
+        g.Accessor(bufferView=0, componentType=g.FLOAT, count=4, type=g.VEC3, min=[-HALF, 0, -HALF], max=[HALF, 0, HALF]),
+        g.Accessor(bufferView=1, componentType=g.FLOAT, count=4, type=g.VEC3),
+        g.Accessor(bufferView=2, componentType=g.FLOAT, count=4, type=g.VEC2),
+        g.Accessor(bufferView=3, componentType=g.UNSIGNED_SHORT, count=6, type=g.SCALAR),
+    ]
+    material = g.Material(
+        doubleSided=True,
+        pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[0, 0, 0, 1], metallicFactor=0, roughnessFactor=1),
+        emissiveTexture=g.TextureInfo(index=0),
+        emissiveFactor=[1, 1, 1],
+    )
+    g.GLTF2(
+        scene=0,
+        scenes=[g.Scene(nodes=[0])],
+        nodes=[g.Node(mesh=0)],
+        meshes=[g.Mesh(primitives=[g.Primitive(attributes=g.Attributes(POSITION=0, NORMAL=1, TEXCOORD_0=2), indices=3, material=0)])],
+        materials=[material],
+        textures=[g.Texture(source=0, sampler=0)],
+        samplers=[g.Sampler(wrapS=10497, wrapT=10497)],
+        images=[g.Image(uri=data_uri(png(), "image/png"))],
+        accessors=accessors,
+        bufferViews=views,
+        buffers=[g.Buffer(byteLength=len(blob), uri=data_uri(blob, "application/octet-stream"))],
+    ).save(os.path.join(out, "checker_floor.gltf"))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
