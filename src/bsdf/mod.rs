@@ -226,11 +226,24 @@ impl Lobe {
         match self {
             Lobe::Lambert(l) => lambert::eval(l, wo, wi),
             Lobe::LayeredDiffuse(l) => lambert::eval(l, wo, wi),
-            Lobe::BlinnPhong(b) => b.eval(wo, wi),
             Lobe::Mirror(_) | Lobe::SmoothDielectric(_) => Vec3::ZERO,
+            _ => self.eval_half_vector(wo, wi),
+        }
+    }
+
+    /// [`Lobe::eval`] of the lobes that need the half vector. Out of line: inlined into the
+    /// loops over the lobes ([`Bsdf::eval`]), the compiler computed the half vector and its
+    /// Fresnel term (a square root and a division) before the loop for every BSDF, a
+    /// Lambertian one too.
+    #[inline(never)]
+    fn eval_half_vector(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match self {
+            Lobe::BlinnPhong(b) => b.eval(wo, wi),
             Lobe::Microfacet(m) => m.weight * m.layer.eval(wo, wi),
             Lobe::Glass(g) => g.eval(wo, wi),
             Lobe::Sheen(s) => s.color * s.value(wo, wi),
+            // Not reached: [`Lobe::eval`] answers for the others.
+            _ => Vec3::ZERO,
         }
     }
 
@@ -238,10 +251,21 @@ impl Lobe {
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Lobe::Lambert(_) | Lobe::LayeredDiffuse(_) | Lobe::Sheen(_) => lambert::pdf(wo, wi),
-            Lobe::BlinnPhong(b) => b.pdf(wo, wi),
             Lobe::Mirror(_) | Lobe::SmoothDielectric(_) => 0.0,
+            _ => self.pdf_half_vector(wo, wi),
+        }
+    }
+
+    /// [`Lobe::pdf`] of the lobes that need the half vector, out of line for the reason of
+    /// [`Lobe::eval_half_vector`].
+    #[inline(never)]
+    fn pdf_half_vector(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Lobe::BlinnPhong(b) => b.pdf(wo, wi),
             Lobe::Microfacet(m) => m.layer.pdf(wo, wi),
             Lobe::Glass(g) => g.pdf(wo, wi),
+            // Not reached: [`Lobe::pdf`] answers for the others.
+            _ => 0.0,
         }
     }
 

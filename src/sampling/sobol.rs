@@ -26,10 +26,22 @@
 //! The sequence has 2^16 = 65,536 points: a render asking for more samples per pixel is refused
 //! ([`check_spp`]).
 //!
+//! **Evaluation.** Only Sobol's dimensions 0 and 1 are ever drawn, so [`Sobol::value`] computes
+//! `sobol_burley::sample(i, d mod 2, seed)` itself from the crate's parts (`hash`,
+//! `owen_scramble_rev`), with the unscrambled point read from a table instead of the crate's
+//! loop over the index's bits, whose exit is a branch mispredicted on most calls: a Sobol
+//! dimension is linear over GF(2) in the index's bits, so the point of a 16-bit index is the XOR
+//! of the points of its two bytes ([`PAIR_TABLE`], built from the two dimensions' direction
+//! numbers, `v_k = 2^k` and `v_k = v_{k−1} ⊕ 2·v_{k−1}`). The two values of a pair share their
+//! seed and shuffled index, computed once ([`Sobol::next_2d`]). The test
+//! `values_are_the_crates_bit_for_bit` checks every index of the sequence against the crate.
+//!
 //! **Dimension bookkeeping** ([`Sobol::start_sample`], [`Sobol::start_bounce`]): dimensions 0–1
 //! are the pixel position, 2–3 the lens, and bounce `b` (0 at the camera ray's hit) owns the
 //! [`DIMS_PER_BOUNCE`] dimensions from `4 + b·DIMS_PER_BOUNCE`, so dimension `d` always means the
 //! same thing whatever happened earlier on the path.
+
+use sobol_burley::parts;
 
 use crate::math::Vec2;
 
@@ -97,11 +109,21 @@ impl Sobol {
         self.dim = dim;
     }
 
-    /// The value of dimension `d` at the current sample, in `[0, 1)`.
+    /// The seed of the pair holding dimension `d` and the sample's index shuffled by it: what
+    /// both dimensions of the pair share (`sobol_burley::sample`'s first step).
+    #[inline]
+    fn pair(&self, d: u32) -> (u32, u32) {
+        let seed = splitmix64(self.pixel.wrapping_add(d as u64 / 2)) as u32;
+        let index_rev = (self.sample & (MAX_SAMPLES - 1)).reverse_bits();
+        (seed, parts::owen_scramble_rev(index_rev, parts::hash(seed ^ 0x79c6_8e4a)))
+    }
+
+    /// The value of dimension `d` at the current sample, in `[0, 1)`:
+    /// `sobol_burley::sample(sample, d mod 2, seed)` (module docs).
     #[inline]
     pub fn value(&self, d: u32) -> f32 {
-        let seed = splitmix64(self.pixel.wrapping_add(d as u64 / 2)) as u32;
-        sobol_burley::sample(self.sample & (MAX_SAMPLES - 1), d % 2, seed)
+        let (seed, shuffled) = self.pair(d);
+        scrambled(sobol_pair_rev(shuffled)[(d % 2) as usize], seed, d % 2)
     }
 
     /// The next dimension.
@@ -118,10 +140,63 @@ impl Sobol {
         if self.dim % 2 == 1 {
             self.dim = self.dim.wrapping_add(1);
         }
-        let v = Vec2::new(self.value(self.dim), self.value(self.dim.wrapping_add(1)));
+        let (seed, shuffled) = self.pair(self.dim);
+        let [x, y] = sobol_pair_rev(shuffled);
         self.dim = self.dim.wrapping_add(2);
-        v
+        Vec2::new(scrambled(x, seed, 0), scrambled(y, seed, 1))
     }
+}
+
+/// Sobol's dimensions 0 and 1 (in `sobol_burley`'s reversed-bit form) of each value of the
+/// reversed index's top byte (`[0]`) and next byte (`[1]`): bit `31 − k` of the reversed index
+/// adds direction number `v_k` (module docs).
+static PAIR_TABLE: [[[u32; 2]; 256]; 2] = pair_table();
+
+const fn pair_table() -> [[[u32; 2]; 256]; 2] {
+    // The direction numbers of dimensions 0 and 1, reversed: v_k = 2^k, and the Pascal
+    // matrix mod 2 (1, 3, 5, 15, 17, 51, ...).
+    let mut v = [[0u32; 2]; 16];
+    let mut k = 0;
+    while k < 16 {
+        v[k][0] = 1 << k;
+        v[k][1] = if k == 0 { 1 } else { v[k - 1][1] ^ (v[k - 1][1] << 1) };
+        k += 1;
+    }
+    let mut table = [[[0u32; 2]; 256]; 2];
+    let mut byte = 0;
+    while byte < 2 {
+        let mut b = 0;
+        while b < 256 {
+            let mut bit = 0;
+            while bit < 8 {
+                if b & (0x80 >> bit) != 0 {
+                    let k = 8 * byte + bit;
+                    table[byte][b][0] ^= v[k][0];
+                    table[byte][b][1] ^= v[k][1];
+                }
+                bit += 1;
+            }
+            b += 1;
+        }
+        byte += 1;
+    }
+    table
+}
+
+/// Sobol's dimensions 0 and 1 of the reversed index `index_rev` (its top 16 bits), reversed:
+/// `sobol_burley::parts::sobol_rev(index_rev, 0 | 1)`.
+#[inline]
+fn sobol_pair_rev(index_rev: u32) -> [u32; 2] {
+    let [a, b] = [&PAIR_TABLE[0][(index_rev >> 24) as usize], &PAIR_TABLE[1][((index_rev >> 16) & 0xff) as usize]];
+    [a[0] ^ b[0], a[1] ^ b[1]]
+}
+
+/// The Owen scramble of dimension `d` (0 or 1) of the pair with `seed` applied to its reversed
+/// Sobol point, as a float in `[0, 1)` (`sobol_burley::sample`'s last steps).
+#[inline]
+fn scrambled(sobol_rev: u32, seed: u32, d: u32) -> f32 {
+    let scramble = seed.wrapping_mul(0x9c8f_2d3b) ^ if d == 0 { 0x912f_69ba } else { 0x174f_18ab };
+    parts::u32_to_f32_norm(parts::owen_scramble_rev(sobol_rev, parts::hash(scramble)).reverse_bits())
 }
 
 #[cfg(test)]
@@ -200,6 +275,26 @@ mod tests {
         let s = Sobol::new(7);
         assert_ne!(s.value(0), s.value(2));
         assert_ne!(s.value(1000), s.value(1002));
+    }
+
+    #[test]
+    fn values_are_the_crates_bit_for_bit() {
+        // Every index of the sequence, both dimensions of a pair, for pixels and pairs whose
+        // seeds differ in every way; against the crate's own `sample`.
+        for pixel in [0u64, 1, 77, 12345, u64::MAX] {
+            let mut s = Sobol::new(pixel);
+            for index in 0..MAX_SAMPLES {
+                s.start_sample(index);
+                for d in [0u32, 1, 6, 7, 301, 1 << 20] {
+                    let seed = splitmix64(s.pixel.wrapping_add(d as u64 / 2)) as u32;
+                    let expect = sobol_burley::sample(index, d % 2, seed);
+                    assert_eq!(s.value(d).to_bits(), expect.to_bits(), "pixel {pixel} index {index} d {d}");
+                }
+                s.set_dimension(300);
+                let v = s.next_2d();
+                assert_eq!((v.x.to_bits(), v.y.to_bits()), (s.value(300).to_bits(), s.value(301).to_bits()));
+            }
+        }
     }
 
     #[test]
