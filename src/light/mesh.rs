@@ -1,7 +1,9 @@
 //! Emissive triangle meshes as area lights: every mesh whose material (or per-triangle
 //! material) has an `emission` `L ≠ 0` — a TOML material, an OBJ `Ke`, a glTF emissive —
 //! lights the scene like a quad light made of those triangles, two-sided (as the camera sees
-//! such a surface, from both sides).
+//! such a surface, from both sides), or from the front only (the side the winding's normal
+//! points to) for triangles whose material is a one-sided emitter (`emission_one_sided`: a
+//! glTF `doubleSided: false` material), as the camera sees those.
 //!
 //! `mesh_light_samples` (in `[image]`, default 1) samples per shading point per mesh, each
 //! carrying `1/mesh_light_samples` of the estimate and stratified as an area light's: a triangle is chosen with probability proportional
@@ -39,6 +41,8 @@ pub struct MeshEmitter {
     cdf: Vec<f64>,
     /// Samples per shading point (the scene's `image.mesh_light_samples`).
     pub samples: u32,
+    /// Per kept triangle, whether it emits from its front only; empty: none does.
+    front_only: Vec<bool>,
 }
 
 impl MeshEmitter {
@@ -54,6 +58,7 @@ impl MeshEmitter {
             radiance: Vec::new(),
             cdf: Vec::new(),
             samples,
+            front_only: Vec::new(),
         };
         let mut total = 0.0;
         for (prim, (corners, l)) in triangles.into_iter().enumerate() {
@@ -68,6 +73,22 @@ impl MeshEmitter {
             }
         }
         (!e.corners.is_empty()).then_some(e)
+    }
+
+    /// The same emitter, its triangles whose `front_only(prim)` holds (`prim` as given to
+    /// [`MeshEmitter::new`]) emitting from their front only.
+    pub fn with_front_only(mut self, front_only: impl Fn(u32) -> bool) -> MeshEmitter {
+        let flags: Vec<bool> = self.prims.iter().map(|&p| front_only(p)).collect();
+        self.front_only = if flags.contains(&true) { flags } else { Vec::new() };
+        self
+    }
+
+    /// Whether triangle `i`, of unit normal `normal`, sends light along `wi` (the direction
+    /// from the lit point to the light): always for a two-sided triangle, else when the point
+    /// lies in front of it (`normal · wi < 0`).
+    #[inline]
+    pub fn emits_along(&self, i: usize, normal: DVec3, wi: DVec3) -> bool {
+        !self.front_only.get(i).copied().unwrap_or(false) || normal.dot(wi) < 0.0
     }
 
     /// The emitting area `A`, m².
@@ -137,6 +158,9 @@ impl MeshEmitter {
         let to = y - p.as_dvec3();
         let d2 = to.length_squared();
         let w = to / d2.sqrt();
+        if !self.emits_along(i, normal, w) {
+            return None;
+        }
         let cos_l = normal.dot(w).abs();
         (d2 > 0.0 && cos_l > 0.0).then(|| Incidence {
             to_light: w.as_vec3(),
