@@ -103,6 +103,9 @@ pub struct Material {
     /// The glTF metallic-roughness material the path tracer shades, when the material is one
     /// (glTF, or TOML's PBR keys); the fields above are then its lecture form.
     pub pbr: Option<Box<Pbr>>,
+    /// Which hits on the surface exist (glTF `alphaMode`, `doubleSided`), when not all do:
+    /// decided while tracing ([`crate::scene::alpha`]).
+    pub coverage: Option<Box<crate::scene::alpha::Coverage>>,
 }
 
 impl Default for Material {
@@ -120,6 +123,7 @@ impl Default for Material {
             emission_one_sided: false,
             area_light: false,
             pbr: None,
+            coverage: None,
         }
     }
 }
@@ -164,6 +168,9 @@ impl Material {
                 images.push(&slot.texture.image);
             }
         }
+        if let Some(slot) = self.coverage.as_ref().and_then(|c| c.texture.as_ref()) {
+            images.push(&slot.texture.image);
+        }
         images
     }
 
@@ -180,6 +187,9 @@ impl Material {
             for slot in p.slots_mut().into_iter().flatten() {
                 slot.texture = bare(&slot.texture);
             }
+        }
+        if let Some(slot) = m.coverage.as_mut().and_then(|c| c.texture.as_mut()) {
+            slot.texture = bare(&slot.texture);
         }
         m
     }
@@ -208,6 +218,7 @@ impl Material {
                     .then(|| format!("ior {} must be a finite number > 0", self.ior))
             })
             .or_else(|| self.pbr.as_ref().and_then(|p| p.problem()))
+            .or_else(|| self.coverage.as_ref().and_then(|c| c.problem()))
     }
 }
 

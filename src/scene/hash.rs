@@ -156,6 +156,10 @@ impl Feed {
             self.u64(2);
             self.bulk(uvs1);
         }
+        if let Some(alphas) = &m.alphas {
+            self.u64(3);
+            self.bulk(alphas);
+        }
     }
 }
 

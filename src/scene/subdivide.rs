@@ -44,6 +44,8 @@ fn once(mesh: &Mesh) -> Mesh {
         colors: mesh.colors.clone(),
         uvs: mesh.uvs.clone(),
         uvs1: mesh.uvs1.clone(),
+        // The alpha test's vertex alphas are not carried through subdivision.
+        alphas: None,
         material: mesh.material,
         triangle_materials: mesh.triangle_materials.as_ref().map(|m| m.iter().flat_map(|&x| [x; 4]).collect()),
     };
@@ -91,6 +93,7 @@ mod tests {
             colors: Some(vec![Vec3::ZERO, Vec3::ONE, Vec3::X, Vec3::Y]),
             uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE]),
             uvs1: None,
+            alphas: None,
             material: 3,
             triangle_materials: Some(vec![5, 6]),
         }

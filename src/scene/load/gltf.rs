@@ -8,7 +8,7 @@
 //!   triangle when they differ); other modes are skipped with a warning naming the primitive.
 //!   Indexed and non-indexed primitives, sparse accessors ([`gltf_sparse`]), morph targets at
 //!   their default weights ([`gltf_morph`]), `NORMAL`, `TEXCOORD_0` (its `v` turned into
-//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB; alpha ignored).
+//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB, and its alpha for the alpha test).
 //! - **Nodes**: the node hierarchy with TRS or matrix transforms, composed in f64; each node
 //!   with a mesh is a [`MeshNode`] (the mesh and the node's object-to-world transform), one
 //!   per instance of `EXT_mesh_gpu_instancing` ([`gltf_instancing`]), so a mesh used by
@@ -47,6 +47,7 @@ use crate::bsdf::PbrParams;
 use crate::light::Light;
 use crate::material::{Material, Pbr, TextureSlot};
 use crate::math::{Vec2, Vec3};
+use crate::scene::alpha::{AlphaMode, Coverage};
 use crate::scene::transform::Transform;
 use crate::scene::{CameraSpec, Mesh};
 use crate::texture::{Encoding, Image, ImageTexture, Wrap, open_shared_as};
@@ -488,7 +489,14 @@ impl Reader<'_> {
             // Blender's importer's name for an unnamed material.
             let name = material.name().map_or_else(|| format!("Material_{i}"), str::to_string);
             let pbr = self.pbr(&material, &what)?;
-            let m = Material { pbr: Some(Box::new(pbr.clone())), ..pbr.lecture_form(name) };
+            let coverage = self.coverage(&material, &what)?;
+            let m = Material {
+                pbr: Some(Box::new(pbr.clone())),
+                coverage: coverage.map(Box::new),
+                // A one-sided emitter (Blender's one-sided area light) emits from its front.
+                emission_one_sided: !material.double_sided(),
+                ..pbr.lecture_form(name)
+            };
             if let Some(problem) = m.problem() {
                 return Err(format!("{what}: {problem}"));
             }
@@ -540,9 +548,6 @@ impl Reader<'_> {
         if material.occlusion_texture().is_some() {
             self.warn(format!("{what}: occlusionTexture ignored (the path tracer computes occlusion)"));
         }
-        if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.warn(format!("{what}: alphaMode {:?} ignored (surfaces are opaque)", material.alpha_mode()));
-        }
         if let Some(t) = material.transmission() {
             out.factors.transmission = t.transmission_factor();
             if t.transmission_texture().is_some() {
@@ -592,6 +597,33 @@ impl Reader<'_> {
             }
         }
         Ok(out)
+    }
+
+    /// Which hits on the material's surface exist ([`crate::scene::alpha`]): `alphaMode`,
+    /// `alphaCutoff` (default 0.5), the base colour's alpha (factor, and the base colour
+    /// texture's alpha plane), `doubleSided`.
+    fn coverage(&mut self, material: &gltf::Material, what: &str) -> Result<Option<Coverage>, String> {
+        let mode = match material.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: material.alpha_cutoff().unwrap_or(0.5) },
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        };
+        let pbr = material.pbr_metallic_roughness();
+        let texture = match (mode, pbr.base_color_texture()) {
+            (AlphaMode::Opaque, _) | (_, None) => None,
+            (_, Some(info)) => Some(self.texture(
+                &info.texture(),
+                info.tex_coord(),
+                info.texture_transform(),
+                Encoding::Alpha,
+                what,
+            )?),
+        };
+        let coverage = Coverage::of(mode, pbr.base_color_factor()[3], texture, material.double_sided());
+        if let Some(problem) = coverage.as_ref().and_then(Coverage::problem) {
+            return Err(format!("{what}: {problem}"));
+        }
+        Ok(coverage)
     }
 
     /// Warns about each of `keys` (textures of extension `extension`) that `value` holds.
@@ -887,6 +919,7 @@ impl Reader<'_> {
         };
         let (mut normals, mut colors, mut uvs, mut uvs1) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut any_normals, mut any_colors, mut any_uvs, mut any_uvs1) = (false, false, false, false);
+        let (mut alphas, mut any_alphas) = (Vec::new(), false);
         let mut materials = Vec::new();
         for primitive in mesh.primitives() {
             let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
@@ -930,8 +963,15 @@ impl Reader<'_> {
                 }
                 colors.extend(reader.read_colors(0).into_iter().flat_map(|c| c.into_rgb_f32()).map(Vec3::from));
                 any_colors = true;
+                if a.dimensions() == Dimensions::Vec4 {
+                    alphas.extend(reader.read_colors(0).into_iter().flat_map(|c| c.into_rgba_f32()).map(|c| c[3]));
+                    any_alphas = true;
+                } else {
+                    alphas.extend(std::iter::repeat_n(1.0, n));
+                }
             } else {
                 colors.extend(std::iter::repeat_n(Vec3::ONE, n));
+                alphas.extend(std::iter::repeat_n(1.0, n));
             }
             for (set, uvs, any) in [(0, &mut uvs, &mut any_uvs), (1, &mut uvs1, &mut any_uvs1)] {
                 let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
@@ -1001,6 +1041,7 @@ impl Reader<'_> {
         }
         out.normals = any_normals.then_some(normals);
         out.colors = any_colors.then_some(colors);
+        out.alphas = any_alphas.then_some(alphas);
         out.uvs = any_uvs.then_some(uvs);
         out.uvs1 = any_uvs1.then_some(uvs1);
         match materials.first() {

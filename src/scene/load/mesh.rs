@@ -271,7 +271,10 @@ fn finish_one(path: &Path, raw: RawMesh, options: &MeshOptions, warnings: &mut V
         Some(&first) => (first, None),
         None => (0, None),
     };
-    (Mesh { name, positions, indices, normals, colors, uvs, uvs1: None, material, triangle_materials }, dropped)
+    (
+        Mesh { name, positions, indices, normals, colors, uvs, uvs1: None, alphas: None, material, triangle_materials },
+        dropped,
+    )
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised, so area-weighted) normals of the
