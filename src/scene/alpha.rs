@@ -1,7 +1,8 @@
 //! Which hits on a surface exist: glTF's `alphaMode`, `alphaCutoff` and `doubleSided`, decided
 //! by one function that both backends call ([`AlphaTest::passes`]), so they agree bit for bit.
 //!
-//! At a hit on triangle `prim` of mesh `geom` whose material has a [`Coverage`]:
+//! At a hit on triangle `prim` of mesh `geom` whose material has a [`Coverage`] (its
+//! `alphaMode`, alpha and `doubleSided`, a material property in [`crate::material`]):
 //!
 //! ```text
 //! α = baseColorFactor.a · baseColorTexture.a(uv) · COLOR_0.a(u, v)
@@ -33,64 +34,9 @@
 //! the filter only to the meshes that have one, and the native BVH tests only their hits.
 
 use crate::geometry::triangle;
-use crate::material::{Material, TextureSlot};
-use crate::math::{Ray, Vec2, Vec3};
+use crate::material::{AlphaMode, Coverage, Material};
+use crate::math::{Ray, Vec2};
 use crate::scene::{Mesh, Scene};
-use crate::surface::{barycentric, barycentric2};
-
-/// glTF's `alphaMode`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum AlphaMode {
-    /// Every hit exists (`OPAQUE`, the default).
-    Opaque,
-    /// A hit exists where `α ≥ cutoff` (`MASK`, `alphaCutoff`).
-    Mask { cutoff: f32 },
-    /// A hit exists with probability `α` (`BLEND`, as stochastic transparency).
-    Blend,
-}
-
-/// What decides whether a hit on a material's surface exists (module docs).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Coverage {
-    pub mode: AlphaMode,
-    /// `baseColorFactor`'s alpha.
-    pub factor: f32,
-    /// The base colour texture's alpha plane, with the colour texture's sampler, `texCoord`
-    /// and transform.
-    pub texture: Option<TextureSlot>,
-    /// `doubleSided: false`: camera rays do not see the back face.
-    pub cull_back_faces: bool,
-}
-
-impl Coverage {
-    /// The coverage of a glTF material, `None` when every hit exists (opaque and two-sided).
-    pub fn of(mode: AlphaMode, factor: f32, texture: Option<TextureSlot>, double_sided: bool) -> Option<Coverage> {
-        (mode != AlphaMode::Opaque || !double_sided).then_some(Coverage {
-            mode,
-            factor,
-            texture: if mode == AlphaMode::Opaque { None } else { texture },
-            cull_back_faces: !double_sided,
-        })
-    }
-
-    /// `α` at texture coordinates `uv` with vertex alpha `vertex`.
-    #[inline]
-    pub fn alpha(&self, uv: [Vec2; 2], vertex: f32) -> f32 {
-        let texture = self.texture.as_ref().map_or(1.0, |t| t.at(uv).x);
-        self.factor * texture * vertex
-    }
-
-    /// Why this coverage cannot be rendered, if it cannot.
-    pub fn problem(&self) -> Option<String> {
-        if !self.factor.is_finite() {
-            return Some(format!("base colour alpha {} is not finite", self.factor));
-        }
-        match self.mode {
-            AlphaMode::Mask { cutoff } if !cutoff.is_finite() => Some(format!("alphaCutoff {cutoff} is not finite")),
-            _ => None,
-        }
-    }
-}
 
 /// `ξ ∈ [0, 1)` of a ray meeting triangle `prim` of geometry `geom` (module docs).
 #[inline]
@@ -207,10 +153,12 @@ impl AlphaTest {
             // A ray in the triangle's plane has no re-solved hit: its centre stands for it.
             let (u, v) =
                 triangle::resolve_f64(ray.org, ray.dir, corners).map_or((1.0 / 3.0, 1.0 / 3.0), |h| (h.u, h.v));
-            let uv = |set: &Option<Vec<Vec2>>| set.as_ref().map(|t| barycentric2(idx.map(|i| t[i]), u, v));
+            // Interpolated as shading interpolates (`crate::surface::barycentric2`).
+            let w = 1.0 - u - v;
+            let uv = |set: &Option<Vec<Vec2>>| set.as_ref().map(|t| w * t[idx[0]] + u * t[idx[1]] + v * t[idx[2]]);
             let uv0 = uv(&mesh.uvs).unwrap_or(Vec2::ZERO);
             let uv1 = uv(&mesh.uvs1).unwrap_or(uv0);
-            let vertex = mesh.alphas.as_ref().map_or(1.0, |a| barycentric(idx.map(|i| Vec3::splat(a[i])), u, v).x);
+            let vertex = mesh.alphas.as_ref().map_or(1.0, |a| w * a[idx[0]] + u * a[idx[1]] + v * a[idx[2]]);
             c.alpha([uv0, uv1], vertex)
         };
         match c.mode {
@@ -224,6 +172,7 @@ impl AlphaTest {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec3;
 
     #[test]
     fn xi_is_uniform_and_depends_on_every_word() {

@@ -455,9 +455,7 @@ impl Bvh {
     #[inline]
     fn intersect_tree(&self, ray: &Ray, tfar: f32) -> Option<Hit> {
         if let Some(alpha) = &self.alpha {
-            let r = TraversalRay::new(ray);
-            let found = self.intersect_by(ray, tfar, &r, &Filtered { boxes: &r, alpha, ray });
-            return found.map(|f| self.hit_of(ray, tfar, f));
+            return self.intersect_filtered(ray, tfar, alpha);
         }
         let found = match self.kernel {
             Traversal::Portable => {
@@ -470,12 +468,27 @@ impl Bvh {
         found.map(|f| self.hit_of(ray, tfar, f))
     }
 
+    /// [`Bvh::intersect_tree`] with the alpha test ([`Filtered`]). Kept out of line, so the
+    /// traversal of scenes without alpha is compiled as it was.
+    #[inline(never)]
+    fn intersect_filtered(&self, ray: &Ray, tfar: f32, alpha: &AlphaTest) -> Option<Hit> {
+        let r = TraversalRay::new(ray);
+        let found = self.intersect_by(ray, tfar, &r, &Filtered { boxes: &r, alpha, ray });
+        found.map(|f| self.hit_of(ray, tfar, f))
+    }
+
+    /// [`Bvh::occluded_tree`] with the alpha test, out of line as [`Bvh::intersect_filtered`].
+    #[inline(never)]
+    fn occluded_filtered(&self, ray: &Ray, alpha: &AlphaTest) -> bool {
+        let r = TraversalRay::new(ray);
+        self.occluded_by(ray, &r, &Filtered { boxes: &r, alpha, ray })
+    }
+
     /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
     #[inline]
     fn occluded_tree(&self, ray: &Ray) -> bool {
         if let Some(alpha) = &self.alpha {
-            let r = TraversalRay::new(ray);
-            return self.occluded_by(ray, &r, &Filtered { boxes: &r, alpha, ray });
+            return self.occluded_filtered(ray, alpha);
         }
         match self.kernel {
             Traversal::Portable => {
