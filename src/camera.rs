@@ -209,9 +209,9 @@ impl Camera {
         if self.ortho {
             // `s = u·u + v·v − d·w`: the origin is its part in the image plane.
             let origin = self.eye + s + IMAGE_PLANE_DISTANCE * self.w;
-            return Ray::new(origin.as_vec3(), (-self.w).as_vec3());
+            return Ray::new(origin.as_vec3(), (-self.w).as_vec3()).from_camera();
         }
-        Ray::new(self.eye.as_vec3(), (s / s.length()).as_vec3())
+        Ray::new(self.eye.as_vec3(), (s / s.length()).as_vec3()).from_camera()
     }
 
     /// The ray cone of a camera ray (Akenine-Möller et al., "Texture Level of Detail
@@ -250,7 +250,7 @@ impl Camera {
         let (lx, ly) = crate::sampler::concentric_disk(lens);
         let origin = self.eye + self.aperture * (lx * self.u + ly * self.v);
         let dir = self.eye + self.focus * s - origin;
-        Ray::new(origin.as_vec3(), (dir / dir.length()).as_vec3())
+        Ray::new(origin.as_vec3(), (dir / dir.length()).as_vec3()).from_camera()
     }
 
     /// The ray through the centre of pixel `(x, y)`: the lecture's one ray per pixel.

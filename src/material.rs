@@ -119,6 +119,9 @@ pub struct Material {
     /// The glTF metallic-roughness material the path tracer shades, when the material is one
     /// (glTF, or TOML's PBR keys); the fields above are then its lecture form.
     pub pbr: Option<Box<Pbr>>,
+    /// Which hits on the surface exist (glTF `alphaMode`, `doubleSided`), when not all do:
+    /// decided while tracing ([`crate::scene::alpha`]).
+    pub coverage: Option<Box<Coverage>>,
 }
 
 impl Default for Material {
@@ -136,6 +139,7 @@ impl Default for Material {
             emission_one_sided: false,
             area_light: false,
             pbr: None,
+            coverage: None,
         }
     }
 }
@@ -180,6 +184,9 @@ impl Material {
                 images.push(&slot.texture.image);
             }
         }
+        if let Some(slot) = self.coverage.as_ref().and_then(|c| c.texture.as_ref()) {
+            images.push(&slot.texture.image);
+        }
         images
     }
 
@@ -196,6 +203,9 @@ impl Material {
             for slot in p.slots_mut().into_iter().flatten() {
                 slot.texture = bare(&slot.texture);
             }
+        }
+        if let Some(slot) = m.coverage.as_mut().and_then(|c| c.texture.as_mut()) {
+            slot.texture = bare(&slot.texture);
         }
         m
     }
@@ -224,6 +234,7 @@ impl Material {
                     .then(|| format!("ior {} must be a finite number > 0", self.ior))
             })
             .or_else(|| self.pbr.as_ref().and_then(|p| p.problem()))
+            .or_else(|| self.coverage.as_ref().and_then(|c| c.problem()))
     }
 }
 
@@ -478,6 +489,61 @@ impl Pbr {
 
 fn bad_colour(what: &str, c: Vec3) -> Option<String> {
     (!(c.is_finite() && c.min_element() >= 0.0)).then(|| format!("{what} {c} must be finite and ≥ 0"))
+}
+
+/// glTF's `alphaMode`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Every hit exists (`OPAQUE`, the default).
+    Opaque,
+    /// A hit exists where `α ≥ cutoff` (`MASK`, `alphaCutoff`).
+    Mask { cutoff: f32 },
+    /// A hit exists with probability `α` (`BLEND`, as stochastic transparency).
+    Blend,
+}
+
+/// What decides whether a hit on a material's surface exists: glTF's `alphaMode`, the base
+/// colour's alpha and `doubleSided`, tested while tracing by [`crate::scene::alpha`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coverage {
+    pub mode: AlphaMode,
+    /// `baseColorFactor`'s alpha.
+    pub factor: f32,
+    /// The base colour texture's alpha plane, with the colour texture's sampler, `texCoord`
+    /// and transform.
+    pub texture: Option<TextureSlot>,
+    /// `doubleSided: false`: camera rays do not see the back face.
+    pub cull_back_faces: bool,
+}
+
+impl Coverage {
+    /// The coverage of a glTF material, `None` when every hit exists (opaque and two-sided).
+    pub fn of(mode: AlphaMode, factor: f32, texture: Option<TextureSlot>, double_sided: bool) -> Option<Coverage> {
+        (mode != AlphaMode::Opaque || !double_sided).then_some(Coverage {
+            mode,
+            factor,
+            texture: if mode == AlphaMode::Opaque { None } else { texture },
+            cull_back_faces: !double_sided,
+        })
+    }
+
+    /// `α` at texture coordinates `uv` with vertex alpha `vertex`.
+    #[inline]
+    pub fn alpha(&self, uv: [Vec2; 2], vertex: f32) -> f32 {
+        let texture = self.texture.as_ref().map_or(1.0, |t| t.at(uv).x);
+        self.factor * texture * vertex
+    }
+
+    /// Why this coverage cannot be rendered, if it cannot.
+    pub fn problem(&self) -> Option<String> {
+        if !self.factor.is_finite() {
+            return Some(format!("base colour alpha {} is not finite", self.factor));
+        }
+        match self.mode {
+            AlphaMode::Mask { cutoff } if !cutoff.is_finite() => Some(format!("alphaCutoff {cutoff} is not finite")),
+            _ => None,
+        }
+    }
 }
 
 #[cfg(test)]

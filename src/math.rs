@@ -12,17 +12,27 @@ pub struct Ray {
     pub dir: Vec3,
     pub tnear: f32,
     pub tfar: f32,
+    /// Whether the camera made this ray: its hits on the back of a one-sided surface (glTF
+    /// `doubleSided: false`) do not exist ([`crate::scene::alpha`]); secondary and shadow rays
+    /// see both sides.
+    pub camera: bool,
 }
 
 impl Ray {
     /// A ray from `org` along `dir` over `(0, ∞)`.
     pub fn new(org: Vec3, dir: Vec3) -> Self {
-        Ray { org, dir, tnear: 0.0, tfar: f32::INFINITY }
+        Ray { org, dir, tnear: 0.0, tfar: f32::INFINITY, camera: false }
     }
 
     /// The same ray restricted to `(tnear, tfar)`.
     pub fn segment(org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Self {
-        Ray { org, dir, tnear, tfar }
+        Ray { org, dir, tnear, tfar, camera: false }
+    }
+
+    /// The same ray, marked as a camera ray.
+    #[inline]
+    pub fn from_camera(self) -> Self {
+        Ray { camera: true, ..self }
     }
 
     /// The point at parameter `t`.

@@ -3,8 +3,10 @@
 //!
 //! - **Decoding** (the `image` crate): 8- and 16-bit images are sRGB-encoded, so each channel
 //!   `c ∈ [0, 1]` is turned into linear reflectance once, at load time, with the sRGB transfer
-//!   function `c ≤ 0.04045 ? c/12.92 : ((c + 0.055)/1.055)^2.4` (computed in f64). Alpha is
-//!   ignored (strahl's surfaces are opaque). The header is checked before anything is
+//!   function `c ≤ 0.04045 ? c/12.92 : ((c + 0.055)/1.055)^2.4` (computed in f64). Colour
+//!   textures drop alpha; a texture a material's alpha test reads ([`crate::scene::alpha`]) is
+//!   decoded a second time as its alpha plane ([`Encoding::Alpha`]: the alpha channel, linear,
+//!   in all three channels; 1 for images without one), counted in the budget like any texels. The header is checked before anything is
 //!   allocated: the texels must fit in what is left of the memory budget
 //!   ([`crate::sys::read::remaining_memory`]; they are counted there while the image lives) and
 //!   the declared size in what the file's bytes can hold; the pixels are then decoded into the
@@ -103,6 +105,9 @@ pub enum Encoding {
     Srgb,
     /// Data, one for one (glTF's metallic-roughness and normal textures).
     Linear,
+    /// The alpha channel, linear, in every channel of the texel (1 where the image has no
+    /// alpha): the plane a material's alpha test reads.
+    Alpha,
 }
 
 /// The sRGB transfer function's inverse: an encoded channel in [0, 1] to linear.
@@ -255,11 +260,33 @@ impl Image {
         decoder.read_image(&mut buffer[encoded..]).map_err(|e| format!("{name}: cannot decode the image: {e}"))?;
         let decode = |c: f64| match encoding {
             Encoding::Srgb => srgb_to_linear(c),
-            Encoding::Linear => c,
+            Encoding::Linear | Encoding::Alpha => c,
         };
         let t8: Vec<f32> = (0..256).map(|c| decode(c as f64 / 255.0) as f32).collect();
         let t8 = |c: u8| t8[c as usize];
         let l16 = |b: &[u8]| decode(u16::from_ne_bytes([b[0], b[1]]) as f64 / 65535.0) as f32;
+        if encoding == Encoding::Alpha {
+            match color {
+                image::ColorType::L8 => widen::<1>(buffer, n, |_| [1.0; 3]),
+                image::ColorType::La8 => widen::<2>(buffer, n, |p| [t8(p[1]); 3]),
+                image::ColorType::Rgb8 => widen::<3>(buffer, n, |_| [1.0; 3]),
+                image::ColorType::Rgba8 => widen::<4>(buffer, n, |p| [t8(p[3]); 3]),
+                image::ColorType::L16 => widen::<2>(buffer, n, |_| [1.0; 3]),
+                image::ColorType::La16 => widen::<4>(buffer, n, |p| [l16(&p[2..]); 3]),
+                image::ColorType::Rgb16 => widen::<6>(buffer, n, |_| [1.0; 3]),
+                _ => widen::<8>(buffer, n, |p| [l16(&p[6..]); 3]),
+            }
+            // The alpha test reads level 0 only (both backends must decide alike): no pyramid.
+            return Ok(Image {
+                name: name.to_string(),
+                width: width as usize,
+                height: height as usize,
+                texels,
+                held,
+                levels: Vec::new(),
+                levels_held: Held::nothing(),
+            });
+        }
         match color {
             image::ColorType::L8 => widen::<1>(buffer, n, |p| [t8(p[0]); 3]),
             image::ColorType::La8 => widen::<2>(buffer, n, |p| [t8(p[0]); 3]),

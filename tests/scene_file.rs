@@ -120,6 +120,7 @@ material = \"tiles\"
             emission_one_sided: false,
             area_light: false,
             pbr: None,
+            coverage: None,
         }
     );
     assert_eq!(s.materials[1].emission, Vec3::new(10.0, 9.0, 8.0));

@@ -15,8 +15,10 @@ ellipse) in world space, black and non-reflecting, of radiance
 where P is the light's power in W and A its area in m² after the object's scale: Cycles'
 radiance for an area light (its kernel's 1/(4A); a 0.5 m square of 100 W lights a floor
 exactly as an Emission quad of strength 100 / (4 · 0.25), measured to 1e-5 in Cycles 3.4).
-strahl's emissive meshes light both sides, where Blender's area light lights its front (−z)
-only; the spread angle is ignored.
+The polygon's winding faces the light's −z, the side a Blender area light lights, and its
+material is one-sided (glTF's default `doubleSided: false`), so strahl's emissive mesh lights
+that side only and a camera behind it sees through it, as Cycles' area light; the spread angle
+is ignored.
 
 The exporter writes the frame being rendered (`export_current_frame`; by default it would
 set the scene to frame 0 and back, and an animation would export the wrong frames).
@@ -131,7 +133,8 @@ def area_lights(depsgraph):
             continue
         scale = light.energy / (4.0 * area)
         radiance = [c * scale for c in light.color]
-        polygon = [to_gltf(m @ _vec(x, y)) for x, y in local]
+        # Clockwise seen from the light's +z: the winding's normal is its −z, the lit side.
+        polygon = [to_gltf(m @ _vec(x, y)) for x, y in reversed(local)]
         lights.append((obj.name, polygon, radiance))
     return lights
 

@@ -100,7 +100,13 @@ pub fn mesh_emitters(scene: &Scene) -> Vec<MeshEmitter> {
     // leaves out), so the emitter knows its triangles by their index in the mesh.
     let meshes = scene.meshes.iter().enumerate();
     meshes
-        .filter_map(|(k, mesh)| MeshEmitter::new(k as u32, samples, (0..mesh.indices.len()).map(|i| emitting(mesh, i))))
+        .filter_map(|(k, mesh)| {
+            let e = MeshEmitter::new(k as u32, samples, (0..mesh.indices.len()).map(|i| emitting(mesh, i)))?;
+            let one_sided = |i: u32| {
+                scene.materials.get(mesh.material_of(i as usize) as usize).is_some_and(|m| m.emission_one_sided)
+            };
+            Some(e.with_front_only(one_sided))
+        })
         .collect()
 }
 

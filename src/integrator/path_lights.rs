@@ -75,31 +75,23 @@ impl<'a> PathLights<'a> {
     pub fn sample(&self, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
         let (mut sample, choice) = self.set.sample(p, n, u_select, u)?;
         if let Some(at) = sample.on_mesh {
-            sample.radiance = self.mesh_radiance(at, sample.wi, sample.radiance)?;
+            sample.radiance = self.mesh_radiance(at, sample.radiance);
         }
         Some((sample, choice))
     }
 
-    /// The radiance leaving the mesh point `at` towards a shading point that sees it along
-    /// `wi`, where the light set gave the triangle's mean `mean`: the material's emissive
-    /// texture looked up at the point's texture coordinates (as a ray that hits the point sees
-    /// it, [`crate::shading::shade_at`]), and `None` from behind a one-sided emitter (the side
-    /// its winding's normal points away from). Otherwise `mean` as it is.
-    fn mesh_radiance(&self, at: MeshPoint, wi: Vec3, mean: Vec3) -> Option<Vec3> {
-        let mesh = self.scene.meshes.get(at.mesh as usize)?;
-        let material = self.scene.materials.get(mesh.material_of(at.prim as usize) as usize)?;
-        let idx = mesh.indices.get(at.prim as usize)?.map(|i| i as usize);
-        if material.emission_one_sided {
-            let [a, b, c] = idx.map(|i| mesh.positions[i]);
-            if (b - a).cross(c - a).dot(wi) >= 0.0 {
-                return None;
+    /// The radiance leaving the mesh point `at`, where the light set gave the triangle's mean
+    /// `mean`: the material's emissive texture looked up at the point's texture coordinates
+    /// (as a ray that hits the point sees it, [`crate::shading::shade_at`]), else `mean` as it
+    /// is. (The light set already gives no sample behind a one-sided emitter.)
+    fn mesh_radiance(&self, at: MeshPoint, mean: Vec3) -> Vec3 {
+        let Some(mesh) = self.scene.meshes.get(at.mesh as usize) else { return mean };
+        let material = self.scene.materials.get(mesh.material_of(at.prim as usize) as usize);
+        match (material.and_then(|m| m.pbr.as_deref()), mesh.indices.get(at.prim as usize)) {
+            (Some(pbr), Some(idx)) if pbr.emissive_texture.is_some() => {
+                pbr.emission_at(texture_coordinates(mesh, idx.map(|i| i as usize), at.u, at.v))
             }
-        }
-        match material.pbr.as_deref() {
-            Some(pbr) if pbr.emissive_texture.is_some() => {
-                Some(pbr.emission_at(texture_coordinates(mesh, idx, at.u, at.v)))
-            }
-            _ => Some(mean),
+            _ => mean,
         }
     }
 

@@ -1,9 +1,11 @@
 //! Emissive triangle meshes as area lights: every mesh whose material (or per-triangle
 //! material) has an `emission` `L ≠ 0` — a TOML material, an OBJ `Ke`, a glTF emissive —
 //! lights the scene like a quad light made of those triangles, two-sided (as the camera sees
-//! such a surface, from both sides). `L` here is the triangle's mean radiance (an emission
-//! texture's mean texel): what chooses lights and triangles. The path tracer then looks the
-//! radiance up where the sampled point lies, texture and one-sided emission included
+//! such a surface, from both sides), or from the front only (the side the winding's normal
+//! points to) for triangles whose material is a one-sided emitter (`emission_one_sided`: a
+//! glTF `doubleSided: false` material), as the camera sees those. `L` here is the triangle's
+//! mean radiance (an emission texture's mean texel): what chooses lights and triangles. The
+//! path tracer then looks the radiance up where the sampled point lies
 //! ([`crate::integrator::path_lights::PathLights::sample`]), so light sampling and BSDF
 //! sampling estimate the same light.
 //!
@@ -43,6 +45,8 @@ pub struct MeshEmitter {
     cdf: Vec<f64>,
     /// Samples per shading point (the scene's `image.mesh_light_samples`).
     pub samples: u32,
+    /// Per kept triangle, whether it emits from its front only; empty: none does.
+    front_only: Vec<bool>,
 }
 
 impl MeshEmitter {
@@ -58,6 +62,7 @@ impl MeshEmitter {
             radiance: Vec::new(),
             cdf: Vec::new(),
             samples,
+            front_only: Vec::new(),
         };
         let mut total = 0.0;
         for (prim, (corners, l)) in triangles.into_iter().enumerate() {
@@ -72,6 +77,22 @@ impl MeshEmitter {
             }
         }
         (!e.corners.is_empty()).then_some(e)
+    }
+
+    /// The same emitter, its triangles whose `front_only(prim)` holds (`prim` as given to
+    /// [`MeshEmitter::new`]) emitting from their front only.
+    pub fn with_front_only(mut self, front_only: impl Fn(u32) -> bool) -> MeshEmitter {
+        let flags: Vec<bool> = self.prims.iter().map(|&p| front_only(p)).collect();
+        self.front_only = if flags.contains(&true) { flags } else { Vec::new() };
+        self
+    }
+
+    /// Whether triangle `i`, of unit normal `normal`, sends light along `wi` (the direction
+    /// from the lit point to the light): always for a two-sided triangle, else when the point
+    /// lies in front of it (`normal · wi < 0`).
+    #[inline]
+    pub fn emits_along(&self, i: usize, normal: DVec3, wi: DVec3) -> bool {
+        !self.front_only.get(i).copied().unwrap_or(false) || normal.dot(wi) < 0.0
     }
 
     /// The emitting area `A`, m².
@@ -148,6 +169,9 @@ impl MeshEmitter {
         let to = y - p.as_dvec3();
         let d2 = to.length_squared();
         let w = to / d2.sqrt();
+        if !self.emits_along(i, normal, w) {
+            return None;
+        }
         let cos_l = normal.dot(w).abs();
         (d2 > 0.0 && cos_l > 0.0).then(|| Incidence {
             to_light: w.as_vec3(),

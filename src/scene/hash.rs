@@ -156,10 +156,14 @@ impl Feed {
             self.u64(2);
             self.bulk(uvs1);
         }
-        // Likewise (tagged 3).
+        // Likewise (tagged 3 and 4).
         if let Some(tangents) = &m.tangents {
             self.u64(3);
             self.bulk(tangents);
+        }
+        if let Some(alphas) = &m.alphas {
+            self.u64(4);
+            self.bulk(alphas);
         }
     }
 }

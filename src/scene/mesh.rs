@@ -1,4 +1,5 @@
-//! Triangle meshes in world space, with the optional per-vertex data shading interpolates.
+//! Triangle meshes in world space, with the optional per-vertex data shading (and the alpha
+//! test) interpolates.
 
 use crate::math::{Aabb, Vec2, Vec3, Vec4};
 
@@ -12,6 +13,9 @@ pub struct Mesh {
     pub indices: Vec<[u32; 3]>,
     pub normals: Option<Vec<Vec3>>,
     pub colors: Option<Vec<Vec3>>,
+    /// Per-vertex alpha (glTF's `COLOR_0.a`), read only by a material's alpha test
+    /// ([`crate::scene::alpha`]).
+    pub alphas: Option<Vec<f32>>,
     pub uvs: Option<Vec<Vec2>>,
     /// A second set of texture coordinates (glTF's `TEXCOORD_1`), read by the textures that
     /// ask for it ([`crate::material::TextureSlot::tex_coord`]).
@@ -55,6 +59,7 @@ impl Mesh {
         let per_vertex = [
             ("normals", self.normals.as_ref().map(Vec::len)),
             ("colours", self.colors.as_ref().map(Vec::len)),
+            ("vertex alphas", self.alphas.as_ref().map(Vec::len)),
             ("texture coordinates", self.uvs.as_ref().map(Vec::len)),
             ("second texture coordinates", self.uvs1.as_ref().map(Vec::len)),
             ("tangents", self.tangents.as_ref().map(Vec::len)),

@@ -6,6 +6,7 @@
 //! lone mesh file ([`from_mesh_file`]) and a lone glTF file ([`from_gltf_file`]). Nothing downstream knows which file format the
 //! geometry came from.
 
+pub mod alpha;
 pub mod emitters;
 pub mod hash;
 pub mod instance;

@@ -45,6 +45,8 @@ fn once(mesh: &Mesh) -> Mesh {
         uvs: mesh.uvs.clone(),
         uvs1: mesh.uvs1.clone(),
         tangents: mesh.tangents.clone(),
+        // The alpha test's vertex alphas are not carried through subdivision.
+        alphas: None,
         material: mesh.material,
         triangle_materials: mesh.triangle_materials.as_ref().map(|m| m.iter().flat_map(|&x| [x; 4]).collect()),
     };
@@ -97,6 +99,7 @@ mod tests {
             uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE]),
             uvs1: None,
             tangents: None,
+            alphas: None,
             material: 3,
             triangle_materials: Some(vec![5, 6]),
         }

@@ -112,7 +112,7 @@ impl Instances {
     #[inline]
     fn local_ray(&self, entry: &Entry, ray: &Ray, tfar: f32) -> Ray {
         let m = &entry.world_to_object;
-        Ray { org: m.transform_point3(ray.org), dir: m.transform_vector3(ray.dir), tnear: ray.tnear, tfar }
+        Ray { org: m.transform_point3(ray.org), dir: m.transform_vector3(ray.dir), tfar, ..*ray }
     }
 
     /// Calls `f` on every entry whose box the ray enters, until `f` returns false.

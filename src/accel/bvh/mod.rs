@@ -16,6 +16,11 @@
 //!   function Embree's callbacks call too). The closest triangle hit's `t` is recomputed in
 //!   f64 where the watertight test's own `t` may have lost digits ([`triangle::reported_t`]).
 //!
+//! Meshes with a material whose alpha or back faces decide its hits ([`crate::scene::alpha`])
+//! make the tree trace with [`Filtered`]: the portable kernel, each leaf's triangles tested in
+//! turn nearest first and a hit the [`AlphaTest`] refuses taken out of its block's copy
+//! before the block is tested again; scenes without them trace as before.
+//!
 //! Planes are unbounded and stay outside the tree: like [`crate::accel::embree::EmbreeAccel`], every
 //! query tests them first with [`plane::closest`] and shortens the ray to the nearest one. Hits
 //! carry the same ids as Embree's ([`Scene::spheres_geom_id`] etc.), so the two compare one to
@@ -28,12 +33,14 @@ mod simd;
 
 use glam::Vec4;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 use crate::accel::{Accel, Hit, TraceError};
 use crate::geometry::triangle::{self, RayFrame, RayFrame4, Triangle4};
 use crate::geometry::{Plane, Sphere, plane, sphere};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Scene;
+use crate::scene::alpha::AlphaTest;
 pub use build::Options as BuildOptions;
 use build::PrimRef;
 use node::{ChildRef, LeafSink, Node, WIDTH};
@@ -89,6 +96,8 @@ pub struct Bvh {
     instances: Option<Box<instance::Instances>>,
     /// The traversal kernel: AVX2 where the CPU has it.
     kernel: Traversal,
+    /// The alpha and back-face test of the meshes that have one, if any does.
+    alpha: Option<Arc<AlphaTest>>,
 }
 
 /// The kernel a [`Bvh`] traces with; the AVX2 one holds the proof that the CPU has AVX2.
@@ -352,6 +361,7 @@ impl Bvh {
             shallow: (WIDTH - 1) * depth <= STACK,
             instances: instance::Instances::build(scene)?.map(Box::new),
             kernel: Traversal::of(Kernel::best()).unwrap_or(Traversal::Portable),
+            alpha: AlphaTest::of_scene(scene).map(Arc::new),
         })
     }
 
@@ -444,6 +454,9 @@ impl Bvh {
     /// right after it is written, stalled store forwarding for 15 % of a miss's time.)
     #[inline]
     fn intersect_tree(&self, ray: &Ray, tfar: f32) -> Option<Hit> {
+        if let Some(alpha) = &self.alpha {
+            return self.intersect_filtered(ray, tfar, alpha);
+        }
         let found = match self.kernel {
             Traversal::Portable => {
                 let r = TraversalRay::new(ray);
@@ -455,9 +468,28 @@ impl Bvh {
         found.map(|f| self.hit_of(ray, tfar, f))
     }
 
+    /// [`Bvh::intersect_tree`] with the alpha test ([`Filtered`]). Kept out of line, so the
+    /// traversal of scenes without alpha is compiled as it was.
+    #[inline(never)]
+    fn intersect_filtered(&self, ray: &Ray, tfar: f32, alpha: &AlphaTest) -> Option<Hit> {
+        let r = TraversalRay::new(ray);
+        let found = self.intersect_by(ray, tfar, &r, &Filtered { boxes: &r, alpha, ray });
+        found.map(|f| self.hit_of(ray, tfar, f))
+    }
+
+    /// [`Bvh::occluded_tree`] with the alpha test, out of line as [`Bvh::intersect_filtered`].
+    #[inline(never)]
+    fn occluded_filtered(&self, ray: &Ray, alpha: &AlphaTest) -> bool {
+        let r = TraversalRay::new(ray);
+        self.occluded_by(ray, &r, &Filtered { boxes: &r, alpha, ray })
+    }
+
     /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
     #[inline]
     fn occluded_tree(&self, ray: &Ray) -> bool {
+        if let Some(alpha) = &self.alpha {
+            return self.occluded_filtered(ray, alpha);
+        }
         match self.kernel {
             Traversal::Portable => {
                 let r = TraversalRay::new(ray);
@@ -812,6 +844,69 @@ impl BoxTest for TraversalRay {
             mask |= t0.cmple(t1).bitmask() << (4 * c);
         }
         (entry, mask)
+    }
+}
+
+/// The portable kernel with the alpha test ([`AlphaTest::passes`]) on every triangle hit of a
+/// covered mesh: a block's nearest hit that the test refuses is taken out of a copy of the
+/// block (its corners set to NaN, which no ray hits) and the block tested again, so the
+/// nearest hit the test accepts is found, ties to the lowest lane as before.
+struct Filtered<'a> {
+    boxes: &'a TraversalRay,
+    alpha: &'a AlphaTest,
+    /// The ray as the caller gave it (in world space): the test's input.
+    ray: &'a Ray,
+}
+
+impl Filtered<'_> {
+    /// The nearest hit in `block` within `(tnear, tfar)` that the test accepts.
+    #[inline]
+    fn nearest_accepted(
+        &self,
+        block: &Block,
+        frame: &RayFrame4,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<(usize, triangle::TriangleHit)> {
+        let mut found = triangle::intersect4(frame, &block.triangles, tnear, tfar)?;
+        let mut left = block.triangles;
+        loop {
+            let (lane, _) = found;
+            if self.alpha.passes(block.geom_ids[lane], block.prim_ids[lane], self.ray) {
+                return Some(found);
+            }
+            left.set(lane, [Vec3::NAN; 3]);
+            found = triangle::intersect4(frame, &left, tnear, tfar)?;
+        }
+    }
+}
+
+impl BoxTest for Filtered<'_> {
+    #[inline(always)]
+    fn hit_boxes<const AXIAL: bool>(&self, node: &Node, tfar: f32) -> ([f32; WIDTH], u32) {
+        self.boxes.hit_boxes::<AXIAL>(node, tfar)
+    }
+
+    fn intersect_blocks(
+        &self,
+        blocks: &[Block],
+        frame: &RayFrame4,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<(usize, usize, triangle::TriangleHit)> {
+        let mut best = None;
+        let mut tfar = tfar;
+        for (i, block) in blocks.iter().enumerate() {
+            if let Some((lane, hit)) = self.nearest_accepted(block, frame, tnear, tfar) {
+                tfar = hit.t;
+                best = Some((i, lane, hit));
+            }
+        }
+        best
+    }
+
+    fn occluded_blocks(&self, blocks: &[Block], frame: &RayFrame4, tnear: f32, tfar: f32) -> bool {
+        blocks.iter().any(|block| self.nearest_accepted(block, frame, tnear, tfar).is_some())
     }
 }
 

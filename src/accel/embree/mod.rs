@@ -12,6 +12,7 @@
 //! arguments) and the query context; `cfg(embree3)` / `cfg(embree4)` from `build.rs` keep that
 //! difference inside this module.
 
+mod alpha_filter;
 mod device;
 mod instance;
 pub mod raw_bench;
@@ -84,6 +85,9 @@ impl EmbreeAccel {
             return Err(Error::InvalidInput { object: format!("plane {i}"), problem });
         }
         let mut builder = SceneBuilder::new(device, options)?;
+        if let Some(test) = crate::scene::alpha::AlphaTest::of_scene(scene) {
+            builder.set_alpha_test(std::sync::Arc::new(test));
+        }
         for mesh in &scene.meshes {
             builder.add_triangle_mesh(&mesh.name, &mesh.positions, &mesh.indices)?;
         }

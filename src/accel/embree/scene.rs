@@ -3,7 +3,7 @@
 
 use std::cell::Cell;
 use std::ptr;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use super::device::{Device, take_error};
 use super::user_sphere::{self, SphereSet};
@@ -11,6 +11,7 @@ use super::{Error, sys};
 use crate::accel::Hit;
 use crate::geometry::Sphere;
 use crate::math::{Ray, Vec3};
+use crate::scene::alpha::AlphaTest;
 use crate::scene::mesh::triangles_problem;
 
 /// Per-query state handed to Embree as its query context. It begins with Embree's own context
@@ -106,6 +107,8 @@ pub struct SceneBuilder {
     sphere_sets: Vec<Box<SphereSet>>,
     pub(super) next_id: u32,
     panic_in_callbacks: bool,
+    /// The alpha test whose filter the triangle meshes it covers get (`alpha_filter`).
+    alpha: Option<Arc<AlphaTest>>,
 }
 
 impl SceneBuilder {
@@ -118,6 +121,7 @@ impl SceneBuilder {
             sphere_sets: Vec::new(),
             next_id: 0,
             panic_in_callbacks: false,
+            alpha: None,
         };
         take_error("rtcNewScene")?;
         if raw.is_null() {
@@ -132,6 +136,12 @@ impl SceneBuilder {
         }
         take_error("rtcSetSceneFlags")?;
         Ok(builder)
+    }
+
+    /// Gives the triangle meshes added after this call whose ids `test` covers its filter
+    /// functions ([`super::alpha_filter`]); the scene keeps `test` alive.
+    pub fn set_alpha_test(&mut self, test: Arc<AlphaTest>) {
+        self.alpha = Some(test);
     }
 
     /// The id the next geometry added will get.
@@ -186,6 +196,17 @@ impl SceneBuilder {
                 return Err(out_of_memory("index buffer"));
             }
             ptr::copy_nonoverlapping(indices.as_ptr() as *const u8, ib as *mut u8, 12 * indices.len());
+        }
+        if let Some(test) = self.alpha.as_ref().filter(|t| t.covers(id)) {
+            // SAFETY: `geometry` is live and not yet committed; the user pointer is the
+            // `AlphaTest` in an `Arc` that the builder, then the committed scene, holds for as
+            // long as Embree may call the filter; the filter is `extern "C"` and never unwinds.
+            unsafe {
+                sys::rtcSetGeometryUserData(geometry.0, Arc::as_ptr(test) as *mut _);
+                sys::rtcSetGeometryIntersectFilterFunction(geometry.0, Some(super::alpha_filter::filter));
+                sys::rtcSetGeometryOccludedFilterFunction(geometry.0, Some(super::alpha_filter::filter));
+            }
+            take_error("rtcSetGeometryIntersectFilterFunction")?;
         }
         self.attach(geometry, id)?;
         Ok(id)
@@ -255,7 +276,12 @@ impl SceneBuilder {
             }
         }
         let raw = std::mem::replace(&mut self.raw, ptr::null_mut());
-        Ok(Scene { raw, sphere_sets: std::mem::take(&mut self.sphere_sets), _device: self.device.clone() })
+        Ok(Scene {
+            raw,
+            sphere_sets: std::mem::take(&mut self.sphere_sets),
+            _alpha: self.alpha.take(),
+            _device: self.device.clone(),
+        })
     }
 }
 
@@ -302,6 +328,8 @@ pub struct Scene {
     #[expect(dead_code, reason = "read by Embree's callbacks through raw user pointers")]
     #[allow(clippy::vec_box, reason = "Embree holds pointers to the boxed sets")]
     sphere_sets: Vec<Box<SphereSet>>,
+    /// Read by the alpha filters through Embree's user pointers; dropped after `raw`.
+    _alpha: Option<Arc<AlphaTest>>,
     _device: Device,
 }
 
@@ -333,13 +361,21 @@ pub(super) fn rtc_ray(r: &Ray) -> sys::RTCRay {
     let words = RayWords(
         glam::Vec4::new(r.org.x, r.org.y, r.org.z, open_tnear(r.tnear)),
         glam::Vec4::new(r.dir.x, r.dir.y, r.dir.z, 0.0),
-        // tfar, then mask (every bit: a NaN pattern, moved, never computed with), id 0, flags 0
-        glam::Vec4::new(r.tfar, f32::from_bits(u32::MAX), 0.0, 0.0),
+        // tfar, then mask (every bit: a NaN pattern, moved, never computed with), id (the
+        // camera flag the alpha filter reads, moved too), flags 0
+        glam::Vec4::new(r.tfar, f32::from_bits(u32::MAX), f32::from_bits(ray_id(r)), 0.0),
     );
     // SAFETY: `RayWords` and `RTCRay` are both 48 bytes of 4-byte plain-old-data fields in the
     // same order (org_x, org_y, org_z, tnear; dir_x, dir_y, dir_z, time; tfar, mask, id, flags;
     // sizes checked at compile time below), and every bit pattern is valid for both.
     unsafe { std::mem::transmute::<RayWords, sys::RTCRay>(words) }
+}
+
+/// The `id` Embree carries for the ray: [`super::alpha_filter::CAMERA_RAY_ID`] for camera
+/// rays, else 0.
+#[inline]
+fn ray_id(r: &Ray) -> u32 {
+    if r.camera { super::alpha_filter::CAMERA_RAY_ID } else { 0 }
 }
 
 #[repr(C, align(16))]
@@ -361,6 +397,7 @@ fn set_lane(p: &mut sys::RTCRay8, lane: usize, r: &Ray) {
     (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
     (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
     p.mask[lane] = u32::MAX;
+    p.id[lane] = ray_id(r);
 }
 
 #[inline]

@@ -694,6 +694,7 @@ impl MaterialFile {
             emission_one_sided: false,
             area_light: false,
             pbr: None,
+            coverage: None,
         })
     }
 }

@@ -8,7 +8,7 @@
 //!   triangle when they differ); other modes are skipped with a warning naming the primitive.
 //!   Indexed and non-indexed primitives, sparse accessors ([`gltf_sparse`]), morph targets at
 //!   their default weights ([`gltf_morph`]), `NORMAL`, `TEXCOORD_0` (its `v` turned into
-//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB; alpha ignored). Where a
+//!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB, and its alpha for the alpha test). Where a
 //!   primitive's material has a `normalTexture`, its `TANGENT` (ignored, as glTF asks, when it
 //!   has no `NORMAL`), else MikkTSpace tangents ([`crate::scene::tangents`]).
 //! - **Nodes**: the node hierarchy with TRS or matrix transforms, composed in f64; each node
@@ -47,7 +47,7 @@ use super::gltf_morph::{self, MeshSlots};
 use super::gltf_sparse;
 use crate::bsdf::PbrParams;
 use crate::light::Light;
-use crate::material::{Material, Pbr, TextureSlot};
+use crate::material::{AlphaMode, Coverage, Material, Pbr, TextureSlot};
 use crate::math::{Vec2, Vec3, Vec4};
 use crate::scene::transform::Transform;
 use crate::scene::{CameraSpec, Mesh};
@@ -496,7 +496,14 @@ impl Reader<'_> {
             // Blender's importer's name for an unnamed material.
             let name = material.name().map_or_else(|| format!("Material_{i}"), str::to_string);
             let pbr = self.pbr(&material, &what)?;
-            let m = Material { pbr: Some(Box::new(pbr.clone())), ..pbr.lecture_form(name) };
+            let coverage = self.coverage(&material, &what)?;
+            let m = Material {
+                pbr: Some(Box::new(pbr.clone())),
+                coverage: coverage.map(Box::new),
+                // A one-sided emitter (Blender's one-sided area light) emits from its front.
+                emission_one_sided: !material.double_sided(),
+                ..pbr.lecture_form(name)
+            };
             if let Some(problem) = m.problem() {
                 return Err(format!("{what}: {problem}"));
             }
@@ -547,9 +554,6 @@ impl Reader<'_> {
         }
         if material.occlusion_texture().is_some() {
             self.warn(format!("{what}: occlusionTexture ignored (the path tracer computes occlusion)"));
-        }
-        if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.warn(format!("{what}: alphaMode {:?} ignored (surfaces are opaque)", material.alpha_mode()));
         }
         if let Some(t) = material.transmission() {
             out.factors.transmission = t.transmission_factor();
@@ -623,6 +627,33 @@ impl Reader<'_> {
         out.normal_texture = Some(slot);
         out.normal_scale = normal.scale();
         Ok(())
+    }
+
+    /// Which hits on the material's surface exist ([`crate::scene::alpha`]): `alphaMode`,
+    /// `alphaCutoff` (default 0.5), the base colour's alpha (factor, and the base colour
+    /// texture's alpha plane), `doubleSided`.
+    fn coverage(&mut self, material: &gltf::Material, what: &str) -> Result<Option<Coverage>, String> {
+        let mode = match material.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: material.alpha_cutoff().unwrap_or(0.5) },
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        };
+        let pbr = material.pbr_metallic_roughness();
+        let texture = match (mode, pbr.base_color_texture()) {
+            (AlphaMode::Opaque, _) | (_, None) => None,
+            (_, Some(info)) => Some(self.texture(
+                &info.texture(),
+                info.tex_coord(),
+                info.texture_transform(),
+                Encoding::Alpha,
+                what,
+            )?),
+        };
+        let coverage = Coverage::of(mode, pbr.base_color_factor()[3], texture, material.double_sided());
+        if let Some(problem) = coverage.as_ref().and_then(Coverage::problem) {
+            return Err(format!("{what}: {problem}"));
+        }
+        Ok(coverage)
     }
 
     /// Warns about each of `keys` (textures of extension `extension`) that `value` holds.
@@ -914,6 +945,7 @@ impl Reader<'_> {
         };
         let (mut normals, mut colors, mut uvs, mut uvs1) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut any_normals, mut any_colors, mut any_uvs, mut any_uvs1) = (false, false, false, false);
+        let (mut alphas, mut any_alphas) = (Vec::new(), false);
         let mut materials = Vec::new();
         // Tangents, for the primitives whose material has a normal map: `TANGENT`, or the
         // triangles and texture coordinate set MikkTSpace computes them from.
@@ -960,8 +992,15 @@ impl Reader<'_> {
                 }
                 colors.extend(reader.read_colors(0).into_iter().flat_map(|c| c.into_rgb_f32()).map(Vec3::from));
                 any_colors = true;
+                if a.dimensions() == Dimensions::Vec4 {
+                    alphas.extend(reader.read_colors(0).into_iter().flat_map(|c| c.into_rgba_f32()).map(|c| c[3]));
+                    any_alphas = true;
+                } else {
+                    alphas.extend(std::iter::repeat_n(1.0, n));
+                }
             } else {
                 colors.extend(std::iter::repeat_n(Vec3::ONE, n));
+                alphas.extend(std::iter::repeat_n(1.0, n));
             }
             for (set, uvs, any) in [(0, &mut uvs, &mut any_uvs), (1, &mut uvs1, &mut any_uvs1)] {
                 let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
@@ -1054,6 +1093,7 @@ impl Reader<'_> {
         }
         out.normals = any_normals.then_some(normals);
         out.colors = any_colors.then_some(colors);
+        out.alphas = any_alphas.then_some(alphas);
         out.uvs = any_uvs.then_some(uvs);
         out.uvs1 = any_uvs1.then_some(uvs1);
         out.tangents = any_tangents.then_some(tangents);

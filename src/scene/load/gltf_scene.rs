@@ -69,9 +69,19 @@ pub fn add_gltf(
         mesh
     };
     // A mesh placed by several nodes is stored once, as a prototype with an instance per node;
-    // one placed once is flattened into world space.
+    // one placed once is flattened into world space, and so is one with a material whose
+    // alpha or back faces decide its hits (`crate::scene::alpha` tests flattened meshes only).
     let mut uses = vec![0usize; file.meshes.len()];
     file.nodes.iter().for_each(|n| uses[n.mesh] += 1);
+    let covered = |m: &Mesh| {
+        let has = |i: u32| file.materials.get(i as usize).is_some_and(|m| m.coverage.is_some());
+        material.is_none() && m.triangle_materials.as_ref().map_or(has(m.material), |t| t.iter().any(|&i| has(i)))
+    };
+    for (m, u) in file.meshes.iter().zip(&mut uses) {
+        if covered(m) {
+            *u = (*u).min(1);
+        }
+    }
     let mut prototype_of: Vec<Option<u32>> = vec![None; file.meshes.len()];
     let mut placements = Vec::new();
     for node in &file.nodes {

@@ -281,6 +281,7 @@ fn finish_one(path: &Path, raw: RawMesh, options: &MeshOptions, warnings: &mut V
             uvs,
             uvs1: None,
             tangents: None,
+            alphas: None,
             material,
             triangle_materials,
         },

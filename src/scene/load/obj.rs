@@ -578,6 +578,7 @@ impl MtlBlock {
             emission_one_sided: false,
             area_light: false,
             pbr: None,
+            coverage: None,
         }
     }
 }
