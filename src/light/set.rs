@@ -306,7 +306,7 @@ impl LightSet {
                 let d = d2.sqrt();
                 let wi = to / d;
                 let cos_l = normal.dot(wi).abs();
-                if !(d2 > 0.0 && cos_l > 0.0) || !e.emits_along(tri as usize, normal, wi) {
+                if !(d2 > 0.0 && cos_l > 0.0 && e.emits_along(tri as usize, normal, wi)) {
                     return None;
                 }
                 let pdf = (d2 / (cos_l * e.triangle_area(tri as usize))) as f32;
