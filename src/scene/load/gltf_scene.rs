@@ -70,11 +70,16 @@ pub fn add_gltf(
     };
     // A mesh placed by several nodes is stored once, as a prototype with an instance per node;
     // one placed once is flattened into world space, and so is one with a material whose
-    // alpha or back faces decide its hits (`crate::scene::alpha` tests flattened meshes only).
+    // alpha decides its hits (`crate::scene::alpha` tests flattened meshes only). A mesh that
+    // is only one-sided (`doubleSided: false`, glTF's default) stays instanced, so that a file
+    // that repeats a mesh keeps its memory; its instances are drawn two-sided.
     let mut uses = vec![0usize; file.meshes.len()];
     file.nodes.iter().for_each(|n| uses[n.mesh] += 1);
     let covered = |m: &Mesh| {
-        let has = |i: u32| file.materials.get(i as usize).is_some_and(|m| m.coverage.is_some());
+        let has = |i: u32| {
+            let coverage = file.materials.get(i as usize).and_then(|m| m.coverage.as_ref());
+            coverage.is_some_and(|c| c.mode != crate::material::AlphaMode::Opaque)
+        };
         material.is_none() && m.triangle_materials.as_ref().map_or(has(m.material), |t| t.iter().any(|&i| has(i)))
     };
     for (m, u) in file.meshes.iter().zip(&mut uses) {
