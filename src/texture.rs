@@ -276,26 +276,17 @@ impl Image {
                 image::ColorType::Rgb16 => widen::<6>(buffer, n, |_| [1.0; 3]),
                 _ => widen::<8>(buffer, n, |p| [l16(&p[6..]); 3]),
             }
-            // The alpha test reads level 0 only (both backends must decide alike): no pyramid.
-            return Ok(Image {
-                name: name.to_string(),
-                width: width as usize,
-                height: height as usize,
-                texels,
-                held,
-                levels: Vec::new(),
-                levels_held: Held::nothing(),
-            });
-        }
-        match color {
-            image::ColorType::L8 => widen::<1>(buffer, n, |p| [t8(p[0]); 3]),
-            image::ColorType::La8 => widen::<2>(buffer, n, |p| [t8(p[0]); 3]),
-            image::ColorType::Rgb8 => widen::<3>(buffer, n, |p| [t8(p[0]), t8(p[1]), t8(p[2])]),
-            image::ColorType::Rgba8 => widen::<4>(buffer, n, |p| [t8(p[0]), t8(p[1]), t8(p[2])]),
-            image::ColorType::L16 => widen::<2>(buffer, n, |p| [l16(&p[..]); 3]),
-            image::ColorType::La16 => widen::<4>(buffer, n, |p| [l16(&p[..]); 3]),
-            image::ColorType::Rgb16 => widen::<6>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
-            _ => widen::<8>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
+        } else {
+            match color {
+                image::ColorType::L8 => widen::<1>(buffer, n, |p| [t8(p[0]); 3]),
+                image::ColorType::La8 => widen::<2>(buffer, n, |p| [t8(p[0]); 3]),
+                image::ColorType::Rgb8 => widen::<3>(buffer, n, |p| [t8(p[0]), t8(p[1]), t8(p[2])]),
+                image::ColorType::Rgba8 => widen::<4>(buffer, n, |p| [t8(p[0]), t8(p[1]), t8(p[2])]),
+                image::ColorType::L16 => widen::<2>(buffer, n, |p| [l16(&p[..]); 3]),
+                image::ColorType::La16 => widen::<4>(buffer, n, |p| [l16(&p[..]); 3]),
+                image::ColorType::Rgb16 => widen::<6>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
+                _ => widen::<8>(buffer, n, |p| [l16(&p[..]), l16(&p[2..]), l16(&p[4..])]),
+            }
         }
         let image = Image {
             name: name.to_string(),
@@ -306,7 +297,8 @@ impl Image {
             levels: Vec::new(),
             levels_held: Held::nothing(),
         };
-        image.with_levels()
+        // The alpha test reads level 0 only (both backends must decide alike): no pyramid.
+        if encoding == Encoding::Alpha { Ok(image) } else { image.with_levels() }
     }
 
     /// The image with its mip pyramid (module header), whose bytes are taken from the memory
