@@ -777,6 +777,24 @@ impl TraversalRay {
 
 /// What a traversal kernel computes with SIMD: the slab test of a node's eight children and
 /// the triangle test of a leaf's blocks, as the traversal calls them.
+/// The nearest hit over `blocks`, block after block, each block's hit (`test` up to the
+/// current `tfar`) shortening the ray: ties go to the first block, then the lowest lane.
+#[inline(always)]
+fn nearest_in_blocks(
+    blocks: &[Block],
+    mut tfar: f32,
+    mut test: impl FnMut(&Block, f32) -> Option<(usize, triangle::TriangleHit)>,
+) -> Option<(usize, usize, triangle::TriangleHit)> {
+    let mut best = None;
+    for (i, block) in blocks.iter().enumerate() {
+        if let Some((lane, hit)) = test(block, tfar) {
+            tfar = hit.t;
+            best = Some((i, lane, hit));
+        }
+    }
+    best
+}
+
 trait BoxTest {
     /// Slab tests of the node's boxes against `(tnear, tfar)`: entry distances, and a bit
     /// mask of the boxes the ray enters. `AXIAL` must be the ray's [`TraversalRay::axial`]:
@@ -801,15 +819,7 @@ trait BoxTest {
         tnear: f32,
         tfar: f32,
     ) -> Option<(usize, usize, triangle::TriangleHit)> {
-        let mut best = None;
-        let mut tfar = tfar;
-        for (i, block) in blocks.iter().enumerate() {
-            if let Some((lane, hit)) = triangle::intersect4(frame, &block.triangles, tnear, tfar) {
-                tfar = hit.t;
-                best = Some((i, lane, hit));
-            }
-        }
-        best
+        nearest_in_blocks(blocks, tfar, |block, tfar| triangle::intersect4(frame, &block.triangles, tnear, tfar))
     }
 
     /// Whether some triangle of a leaf's `blocks` lies on the ray within `(tnear, tfar)`.
@@ -894,15 +904,7 @@ impl BoxTest for Filtered<'_> {
         tnear: f32,
         tfar: f32,
     ) -> Option<(usize, usize, triangle::TriangleHit)> {
-        let mut best = None;
-        let mut tfar = tfar;
-        for (i, block) in blocks.iter().enumerate() {
-            if let Some((lane, hit)) = self.nearest_accepted(block, frame, tnear, tfar) {
-                tfar = hit.t;
-                best = Some((i, lane, hit));
-            }
-        }
-        best
+        nearest_in_blocks(blocks, tfar, |block, tfar| self.nearest_accepted(block, frame, tnear, tfar))
     }
 
     fn occluded_blocks(&self, blocks: &[Block], frame: &RayFrame4, tnear: f32, tfar: f32) -> bool {
