@@ -418,6 +418,10 @@ pub struct ImageTexture {
     pub wrap_v: Wrap,
     /// Multiplies every texel (glTF `baseColorFactor`; OBJ's `Kd`, 1 when the MTL gives none).
     pub factor: Vec3,
+    /// Whether [`Self::lookup_lod`] reads the mip pyramid: false for a glTF sampler whose
+    /// `minFilter` is `NEAREST` or `LINEAR` (the file asks for no mip-mapping); true for any
+    /// other, an unset `minFilter`, and OBJ and TOML textures.
+    pub mipmaps: bool,
 }
 
 impl ImageTexture {
@@ -430,7 +434,7 @@ impl ImageTexture {
     /// texels; see the module header): the bilinear lookup where `lod ≤ 0`.
     pub fn lookup_lod(&self, uv: Vec2, lod: f32) -> Vec3 {
         let last = self.image.levels.len();
-        if !(lod > 0.0) || last == 0 {
+        if !(lod > 0.0) || last == 0 || !self.mipmaps {
             return self.lookup(uv);
         }
         let lod = lod.min(last as f32);
@@ -496,7 +500,7 @@ mod tests {
     fn quad(wrap: Wrap) -> ImageTexture {
         let texels = vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
         let image = Arc::new(Image::from_texels("t", 2, 2, texels).unwrap());
-        ImageTexture { image, wrap_u: wrap, wrap_v: wrap, factor: Vec3::ONE }
+        ImageTexture { image, wrap_u: wrap, wrap_v: wrap, factor: Vec3::ONE, mipmaps: true }
     }
 
     #[test]
@@ -547,7 +551,13 @@ mod tests {
     fn checker(w: usize, h: usize, cell: usize) -> ImageTexture {
         let texels = (0..w * h).map(|k| if (k % w / cell + k / w / cell) % 2 == 0 { Vec3::ONE } else { Vec3::ZERO });
         let image = Image::from_texels("checker", w, h, texels.collect()).unwrap().with_levels().unwrap();
-        ImageTexture { image: Arc::new(image), wrap_u: Wrap::Repeat, wrap_v: Wrap::Repeat, factor: Vec3::ONE }
+        ImageTexture {
+            image: Arc::new(image),
+            wrap_u: Wrap::Repeat,
+            wrap_v: Wrap::Repeat,
+            factor: Vec3::ONE,
+            mipmaps: true,
+        }
     }
 
     #[test]

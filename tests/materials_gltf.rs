@@ -215,10 +215,11 @@ fn khr_texture_transform_offsets_scales_and_rotates_the_texture_coordinates() {
         let got = base_at("transform_offset_scale.gltf", q);
         assert!(close(got, texel(1)), "quadrant {q}: {got:?}");
     }
-    // Offset (1, 0), rotation π/2: glTF (u, v) → (1 − v, u); the quad's top-left quadrant
-    // (u, v = ¼, ¼) shows the image's top-right (¾, ¼), its top-right (¾, ¼) the bottom-right
-    // (¾, ¾), its bottom-left (¼, ¾) the top-left (¼, ¼), its bottom-right the bottom-left.
-    for (q, image_q) in [(0, 1), (1, 3), (2, 0), (3, 2)] {
+    // Offset (0, 1), rotation π/2: glTF (u, v) → (v, 1 − u), the image turned a quarter
+    // clockwise; the quad's top-left quadrant (u, v = ¼, ¼) shows the image's bottom-left
+    // (¼, ¾), its top-right (¾, ¼) the top-left (¼, ¼), its bottom-left (¼, ¾) the
+    // bottom-right (¾, ¾), its bottom-right the top-right.
+    for (q, image_q) in [(0, 2), (1, 0), (2, 3), (3, 1)] {
         let got = base_at("transform_rotation.gltf", q);
         assert!(close(got, texel(image_q)), "quadrant {q}: {got:?} vs {:?}", texel(image_q));
     }

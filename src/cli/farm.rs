@@ -176,7 +176,8 @@ fn check_denoise_passes(a: &SlurmArgs, scene: &Path, passes: strahl::output::pas
 
 fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatches) -> anyhow::Result<()> {
     let camera = m.get_one::<String>("camera").map(String::as_str);
-    let mut loaded = super::load_scene_with_camera(scene, camera)?;
+    let environment = m.get_one::<String>("environment").is_some();
+    let mut loaded = super::load_scene_with_camera(scene, camera, environment)?;
     let get = |id: &str| m.get_one::<u32>(id).copied();
     strahl::job::override_image(
         scene,

@@ -78,10 +78,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// scene file (TOML), a glTF file (`.gltf`, `.glb`) with its own camera and lights
 /// ([`strahl::scene::from_gltf_file`], with `camera` choosing among its cameras), or a mesh
 /// file (OBJ, PLY) as a scene of that mesh alone ([`strahl::scene::from_mesh_file`]), told
-/// apart by the file's extension.
-fn load_scene_with_camera(path: &Path, camera: Option<&str>) -> anyhow::Result<strahl::scene::Loaded> {
+/// apart by the file's extension. `lit_by_environment`: the command gives the scene an
+/// environment, so a glTF file without lights gets no default light.
+fn load_scene_with_camera(
+    path: &Path,
+    camera: Option<&str>,
+    lit_by_environment: bool,
+) -> anyhow::Result<strahl::scene::Loaded> {
     let loaded = if strahl::scene::load::gltf::is_gltf(path) {
-        strahl::scene::from_gltf_file(path, camera)?
+        strahl::scene::from_gltf_file_lit(path, camera, lit_by_environment)?
     } else if camera.is_some() {
         anyhow::bail!("{}: --camera chooses among the cameras of a glTF file; this is not one", path.display());
     } else {
@@ -112,9 +117,9 @@ fn set_load_options(confine: &ConfineArg, max_memory: Option<u64>) -> anyhow::Re
     strahl::sys::read::set_load_options(options).map_err(anyhow::Error::msg)
 }
 
-/// [`load_scene_with_camera`] with a glTF file's first camera.
+/// [`load_scene_with_camera`] with a glTF file's first camera and no environment given.
 fn load_scene(path: &Path) -> anyhow::Result<strahl::scene::Loaded> {
-    load_scene_with_camera(path, None)
+    load_scene_with_camera(path, None, false)
 }
 
 /// Most rays of each kind `crosscheck` and `bench` trace (a million take 30–150 MB).

@@ -200,7 +200,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     super::set_load_options(&args.confine, args.max_memory)?;
-    let mut loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref())?;
+    let mut loaded = super::load_scene_with_camera(&args.scene, args.camera.as_deref(), args.environment.is_some())?;
     environment_options(
         &mut loaded.scene,
         args.environment.as_deref(),

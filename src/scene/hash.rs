@@ -267,8 +267,13 @@ mod tests {
         let mut s = whitted_showcase(32, 24, 1);
         let texels = (0..3 * CHUNK / 12 + 7).map(|i| Vec3::splat(i as f32 / 1e6)).collect::<Vec<_>>();
         let image = Image::from_texels("tex.png", texels.len(), 1, texels).unwrap();
-        let texture =
-            ImageTexture { image: image.into(), wrap_u: Wrap::Repeat, wrap_v: Wrap::Clamp, factor: Vec3::ONE };
+        let texture = ImageTexture {
+            image: image.into(),
+            wrap_u: Wrap::Repeat,
+            wrap_v: Wrap::Clamp,
+            factor: Vec3::ONE,
+            mipmaps: true,
+        };
         s.materials[0].diffuse = Texture::Image(crate::material::TextureSlot::plain(texture));
         s.meshes[0].uvs = Some(vec![Vec2::ZERO; s.meshes[0].positions.len()]);
         s.prototypes.push(s.meshes[0].clone());

@@ -20,7 +20,7 @@ pub mod transform;
 
 pub use instance::Instance;
 pub use load::file::{Loaded, ObjectSummary, SceneError, from_mesh_file, from_toml_str, load};
-pub use load::gltf_scene::from_gltf_file;
+pub use load::gltf_scene::{from_gltf_file, from_gltf_file_lit};
 pub use mesh::Mesh;
 
 use crate::geometry::{Plane, Sphere};

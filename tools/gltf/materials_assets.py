@@ -21,7 +21,7 @@ QUADRANTS below (top-left, top-right, bottom-left, bottom-right), embedded as a 
   MR_QUADRANTS: a rough dielectric, a smooth metal, a rough metal, a smooth half metal.
 - transform_offset_scale.gltf, transform_rotation.gltf: a baseColorTexture with
   KHR_texture_transform offset (0.5, 0) and scale 0.5 (the image's top-right quadrant over the
-  whole quad), or offset (1, 0) and rotation pi/2 (u' = 1 - v, v' = u in glTF's coordinates).
+  whole quad), or offset (0, 1) and rotation pi/2 (u' = v, v' = 1 - u in glTF's coordinates).
 """
 
 import base64
@@ -162,7 +162,7 @@ def main(out):
 
     for name, transform in [
         ("transform_offset_scale.gltf", {"offset": [0.5, 0], "scale": [0.5, 0.5]}),
-        ("transform_rotation.gltf", {"offset": [1, 0], "rotation": math.pi / 2}),
+        ("transform_rotation.gltf", {"offset": [0, 1], "rotation": math.pi / 2}),
     ]:
         info = g.TextureInfo(index=0, extensions={"KHR_texture_transform": transform})
         m = g.Material(

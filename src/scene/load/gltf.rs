@@ -472,7 +472,7 @@ struct Reader<'a> {
 /// `KHR_texture_transform`'s affine map of glTF texture coordinates (see `Reader::texture`).
 fn uv_transform([ou, ov]: [f32; 2], [su, sv]: [f32; 2], rotation: f32) -> [[f32; 3]; 2] {
     let (sin, cos) = rotation.sin_cos();
-    [[cos * su, -sin * sv, ou], [sin * su, cos * sv, ov]]
+    [[cos * su, sin * sv, ou], [-sin * su, cos * sv, ov]]
 }
 
 /// The material of primitives that name none: strahl's default grey (glTF's own default, a
@@ -667,13 +667,19 @@ impl Reader<'_> {
 
     /// A material's texture: its image (decoded once per file and encoding) with its sampler's
     /// wrap modes, the texture coordinate set it reads, and its `KHR_texture_transform`:
-    /// `uv' = T(offset) · R(rotation) · S(scale) · uv` in glTF's coordinates, with the
-    /// extension's GLSL rotation `mat3(cos, sin, 0, −sin, cos, 0, 0, 0, 1)` (column-major), so
+    /// `uv' = T(offset) · R(rotation) · S(scale) · uv` in glTF's coordinates (u right, v down
+    /// the image), the rotation turning the image clockwise on the surface:
     ///
     /// ```text
-    /// u' = cos·s_u·u − sin·s_v·v + o_u
-    /// v' = sin·s_u·u + cos·s_v·v + o_v
+    /// u' =  cos·s_u·u + sin·s_v·v + o_u
+    /// v' = −sin·s_u·u + cos·s_v·v + o_v
     /// ```
+    ///
+    /// This is the sign of the Khronos sample model TextureTransformTest (its arrow then points
+    /// at the green marker; tests/khronos_models.rs), of the Khronos sample viewer, three.js
+    /// and Blender's importer. The GLSL sketch in the extension's text,
+    /// `mat3(cos, sin, 0, −sin, cos, 0, 0, 0, 1)` read column-major, gives the opposite sign,
+    /// which points the sample model's arrow at its red "wrong direction" marker.
     ///
     /// and its `texCoord`, when given, in place of the texture's.
     fn texture(
@@ -722,6 +728,10 @@ impl Reader<'_> {
             wrap_u: wrap(sampler.wrap_s()),
             wrap_v: wrap(sampler.wrap_t()),
             factor: Vec3::ONE,
+            mipmaps: !matches!(
+                sampler.min_filter(),
+                Some(gltf::texture::MinFilter::Nearest | gltf::texture::MinFilter::Linear)
+            ),
         };
         Ok(TextureSlot { texture, tex_coord, transform: matrix })
     }

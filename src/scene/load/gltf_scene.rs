@@ -15,7 +15,8 @@
 //! `aspectRatio`, else 480); without a camera it is framed as a lone mesh file is, and without
 //! lights it gets the **default light**, a directional light shining along the view direction
 //! with irradiance π W/m² (so a white Lambertian surface facing the camera has radiance 1),
-//! each said in a warning.
+//! each said in a warning. A file rendered with an environment (`--environment`) is lit by it
+//! and gets no default light.
 
 use std::path::Path;
 
@@ -171,6 +172,12 @@ fn find_camera<'a>(cameras: &'a [GltfCamera], wanted: &str) -> Result<&'a GltfCa
 /// when it has none), and its camera `camera` (a camera index, or the name of a camera or of
 /// its node; the first when `None`).
 pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, SceneError> {
+    from_gltf_file_lit(path, camera, false)
+}
+
+/// [`from_gltf_file`] for a render that gives the scene an environment (`lit_by_environment`):
+/// the environment lights the scene, so a file without lights gets no default light.
+pub fn from_gltf_file_lit(path: &Path, camera: Option<&str>, lit_by_environment: bool) -> Result<Loaded, SceneError> {
     let invalid = |message: String| SceneError::Invalid { path: path.to_owned(), message };
     let file = load_gltf(path)?;
     let mut warnings = file.warnings.clone();
@@ -197,7 +204,7 @@ pub fn from_gltf_file(path: &Path, camera: Option<&str>) -> Result<Loaded, Scene
             warnings.push(format!("{}: has no camera; framing the scene from +z", path.display()));
         }
     }
-    if scene.lights.is_empty() && !emits(&scene) {
+    if scene.lights.is_empty() && !emits(&scene) && !lit_by_environment {
         let direction = (scene.camera.target - scene.camera.eye).normalize();
         scene.lights.push(Light::Directional { direction, irradiance: Vec3::splat(DEFAULT_LIGHT_IRRADIANCE) });
         warnings.push(format!(

@@ -566,6 +566,7 @@ impl MtlBlock {
                     wrap_u: crate::texture::Wrap::Repeat,
                     wrap_v: crate::texture::Wrap::Repeat,
                     factor: self.kd.unwrap_or(Vec3::ONE),
+                    mipmaps: true,
                 })),
                 None => Texture::Constant(self.kd.unwrap_or(Vec3::splat(0.8))),
             },

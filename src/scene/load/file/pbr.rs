@@ -70,7 +70,8 @@ pub(super) fn material(m: &MaterialFile, name: &str, base: &Path) -> Result<Opti
             let Some(path) = v else { return Ok(None) };
             let image = open_shared_as(&base.join(path.get_ref()), encoding)
                 .map_err(|e| at(path.span(), format!("{what}: {e}")))?;
-            let texture = ImageTexture { image, wrap_u: Wrap::Repeat, wrap_v: Wrap::Repeat, factor: Vec3::ONE };
+            let texture =
+                ImageTexture { image, wrap_u: Wrap::Repeat, wrap_v: Wrap::Repeat, factor: Vec3::ONE, mipmaps: true };
             Ok(Some(TextureSlot::plain(texture)))
         };
     let transmission = match &m.transmission {

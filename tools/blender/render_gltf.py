@@ -1,0 +1,92 @@
+"""Renders a glTF file as it is with Blender Cycles, lit by a uniform white world, from a camera
+given on the command line (tests/khronos_models.rs renders the same file with strahl, from the
+same camera, under `--environment 1,1,1`).
+
+    blender -b --factory-startup --python tools/blender/render_gltf.py -- \
+        IN.gltf OUT_DIR SIZE SPP DEPTH EYE_X EYE_Y EYE_Z TARGET_X TARGET_Y TARGET_Z YFOV_DEG [depth]
+
+Writes OUT_DIR/cycles.exr (SIZE x SIZE, RGBA float); with `depth`, a multilayer EXR with the
+Depth pass (`ViewLayer.Depth.Z`) too, of samples at the pixel centres (a box filter 0.01 pixel
+wide, Cycles' narrowest). EYE, TARGET are in glTF's coordinates
+(y up); the camera's up is +y and its vertical field of view YFOV_DEG, on a square image.
+Blender's own glTF importer reads the file: what is compared is two readings of the same asset.
+
+Cycles is set to what strahl computes, as tools/gltf/blender_cornell.py does: DEPTH - 1 bounces of
+every kind, no clamp, no glossy filter, caustics on, no adaptive sampling, no denoising, a box
+filter of one pixel.
+"""
+
+import math, os, sys
+
+import bpy
+import numpy
+from mathutils import Vector
+
+# Blender 3.4's glTF importer still says `numpy.bool`, which NumPy 1.24 removed (Debian
+# bookworm's python3-numpy is 1.24): give it back the alias it meant.
+if not hasattr(numpy, "bool"):
+    numpy.bool = bool
+
+argv = sys.argv[sys.argv.index("--") + 1:]
+src, out_dir = argv[0], argv[1]
+size, spp, depth = int(argv[2]), int(argv[3]), int(argv[4])
+eye = Vector([float(x) for x in argv[5:8]])
+target = Vector([float(x) for x in argv[8:11]])
+yfov = math.radians(float(argv[11]))
+with_depth = "depth" in argv[12:]
+os.makedirs(out_dir, exist_ok=True)
+
+# glTF's y-up to Blender's z-up, (x, y, z) -> (x, -z, y), as the importer converts the file.
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.import_scene.gltf(filepath=src)
+scene = bpy.context.scene
+to_blender = lambda v: Vector((v.x, -v.z, v.y))
+cam_data = bpy.data.cameras.new("camera")
+cam_data.sensor_fit = "VERTICAL"
+cam_data.angle_y = yfov
+cam = bpy.data.objects.new("camera", cam_data)
+cam.location = to_blender(eye)
+cam.rotation_euler = (to_blender(target) - to_blender(eye)).to_track_quat("-Z", "Z").to_euler()
+scene.collection.objects.link(cam)
+scene.camera = cam
+scene.render.resolution_x = size
+scene.render.resolution_y = size
+scene.render.resolution_percentage = 100
+
+world = bpy.data.worlds.new("white")
+world.use_nodes = True
+world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+scene.world = world
+
+scene.render.engine = "CYCLES"
+cycles = scene.cycles
+cycles.device = "CPU"
+cycles.samples = spp
+cycles.use_adaptive_sampling = False
+cycles.use_denoising = False
+cycles.seed = 0
+cycles.max_bounces = depth - 1
+cycles.diffuse_bounces = depth - 1
+cycles.glossy_bounces = depth - 1
+cycles.transmission_bounces = depth - 1
+cycles.transparent_max_bounces = depth - 1
+cycles.volume_bounces = 0
+cycles.sample_clamp_direct = 0.0
+cycles.sample_clamp_indirect = 0.0
+cycles.blur_glossy = 0.0
+cycles.caustics_reflective = True
+cycles.caustics_refractive = True
+cycles.pixel_filter_type = "BOX"
+cycles.filter_width = 1.0
+scene.view_settings.view_transform = "Standard"
+scene.view_settings.look = "None"
+scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER" if with_depth else "OPEN_EXR"
+if with_depth:
+    cycles.filter_width = 0.01
+    scene.view_layers[0].use_pass_z = True
+scene.render.image_settings.color_depth = "32"
+scene.render.image_settings.color_mode = "RGBA"
+scene.render.filepath = os.path.join(out_dir, "cycles.exr")
+bpy.ops.render.render(write_still=True)
+print("WROTE", scene.render.filepath)
