@@ -105,6 +105,15 @@ impl RayCone {
     pub fn width_at(&self, d: f32) -> f32 {
         self.width + self.spread * d
     }
+
+    /// The cone of one of a pixel's `spp` samples: the pixel's cone narrowed by `1/√spp`, at
+    /// most 8 times (pbrt-v4 scales its camera-ray differentials so). The samples themselves
+    /// filter the pixel; a texture filtered over the whole pixel for each of them would be
+    /// blurred twice, and thin detail (text, lines) would fade as the samples add up.
+    pub fn per_sample(self, spp: u32) -> RayCone {
+        let k = (1.0 / (spp.max(1) as f32).sqrt()).max(0.125);
+        RayCone { width: self.width * k, spread: self.spread * k }
+    }
 }
 
 /// `up` counts as parallel to the view direction when the sine of the angle between them is

@@ -20,7 +20,8 @@
 //! area)` of the hit triangle ([`SurfacePoint::uv_density`]); a texture of `W × H` texels is
 //! read at level of detail `λ = log₂(width·√(W·H))` ([`crate::material::TextureSlot::at`],
 //! trilinear in its mip pyramid). The path tracer gives camera rays the camera's cone
-//! ([`crate::camera::Camera::ray_cone`]) and every later vertex a point (`footprint` 0: the
+//! narrowed to one sample's ([`crate::camera::Camera::ray_cone`],
+//! [`crate::camera::RayCone::per_sample`]) and every later vertex a point (`footprint` 0: the
 //! full-resolution bilinear lookup), as glossy and diffuse bounces average texels anyway.
 //! Textures filtered so: base colour, metallic-roughness, emissive, and a lecture material's
 //! image texture; normal maps are read at full resolution ([`crate::surface`]).

@@ -146,7 +146,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     pub fn new(scene: &'a Scene, accel: &'a A) -> Self {
         let img = &scene.image;
         let camera = crate::camera::Camera::new(&scene.camera, img.width, img.height);
-        let cone = camera.map_or(Default::default(), |c| c.ray_cone());
+        let cone = camera.map_or(Default::default(), |c| c.ray_cone().per_sample(img.spp));
         PathTracer { scene, accel, lights: PathLights::new(scene), split: scene.output.passes.any_light(), cone }
     }
 

@@ -8,6 +8,8 @@ material emits its texture and reflects nothing (base colour 0, emissiveFactor 1
 emissiveTexture): the 64 x 64 PNG checker.png (RGB, 8 bits) of 8 x 8 cells of 8 texels, white
 (255) and black (0), so its mean is 0.5 in linear units. Its texture coordinates are
 (x, z) / PERIOD, the sampler repeats, so a cell is PERIOD / 8 metres wide.
+
+checker_floor_linear.gltf: the same, its sampler's minFilter LINEAR (9729): no mipmaps.
 """
 
 import base64
@@ -69,6 +71,14 @@ def main(out):
         emissiveTexture=g.TextureInfo(index=0),
         emissiveFactor=[1, 1, 1],
     )
+    for name, sampler in [
+        ("checker_floor.gltf", g.Sampler(wrapS=10497, wrapT=10497)),
+        ("checker_floor_linear.gltf", g.Sampler(wrapS=10497, wrapT=10497, minFilter=9729)),
+    ]:
+        write(out, name, sampler, material, accessors, views, blob)
+
+
+def write(out, name, sampler, material, accessors, views, blob):
     g.GLTF2(
         scene=0,
         scenes=[g.Scene(nodes=[0])],
@@ -76,12 +86,12 @@ def main(out):
         meshes=[g.Mesh(primitives=[g.Primitive(attributes=g.Attributes(POSITION=0, NORMAL=1, TEXCOORD_0=2), indices=3, material=0)])],
         materials=[material],
         textures=[g.Texture(source=0, sampler=0)],
-        samplers=[g.Sampler(wrapS=10497, wrapT=10497)],
+        samplers=[sampler],
         images=[g.Image(uri=data_uri(png(), "image/png"))],
         accessors=accessors,
         bufferViews=views,
         buffers=[g.Buffer(byteLength=len(blob), uri=data_uri(blob, "application/octet-stream"))],
-    ).save(os.path.join(out, "checker_floor.gltf"))
+    ).save(os.path.join(out, name))
 
 
 if __name__ == "__main__":
