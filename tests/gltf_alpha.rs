@@ -23,20 +23,7 @@ const BLEND_ALPHA: f64 = 0.25;
 
 /// The assets, written into `dir`; `None` (with a skip line) without pygltflib.
 fn assets(dir: &TempDir) -> Option<PathBuf> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/alpha_assets.py");
-    let out = dir.path("assets");
-    match std::process::Command::new("python3").arg(&script).arg(&out).output() {
-        Ok(o) if o.status.success() => Some(out),
-        Ok(o) if text(&o.stderr).contains("No module named") => {
-            common::skip("gltf_alpha: python3 has no pygltflib (pip install pygltflib)");
-            None
-        }
-        Ok(o) => panic!("alpha_assets.py failed: {}", text(&o.stderr)),
-        Err(e) => {
-            common::skip(&format!("gltf_alpha: cannot run python3: {e}"));
-            None
-        }
-    }
+    common::gltf_assets(dir, "alpha_assets.py", "gltf_alpha")
 }
 
 type Channels = Vec<(String, Vec<f32>)>;

@@ -24,21 +24,7 @@ const HEIGHT: usize = 96;
 
 /// The asset's folder, written into `dir`; `None` (with a skip line) without pygltflib.
 fn assets(dir: &TempDir) -> Option<PathBuf> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/mip_assets.py");
-    let out = dir.path("assets");
-    let run = std::process::Command::new("python3").arg(&script).arg(&out).output();
-    match run {
-        Ok(o) if o.status.success() => Some(out),
-        Ok(o) if text(&o.stderr).contains("No module named") => {
-            common::skip("mip_maps: python3 has no pygltflib (pip install pygltflib)");
-            None
-        }
-        Ok(o) => panic!("mip_assets.py failed: {}", text(&o.stderr)),
-        Err(e) => {
-            common::skip(&format!("mip_maps: cannot run python3: {e}"));
-            None
-        }
-    }
+    common::gltf_assets(dir, "mip_assets.py", "mip_maps")
 }
 
 /// The red channel of `file`'s floor, `spp` samples per pixel.
@@ -102,7 +88,7 @@ fn a_min_filter_without_mipmaps_turns_mip_mapping_off() {
     let Some(assets) = assets(&dir) else { return };
     let r = render(&dir, &assets, "checker_floor_linear.gltf", 1);
     let far = &r[42 * WIDTH..47 * WIDTH];
-    let cells = far.iter().filter(|&&v| v < 0.05 || v > 0.95).count();
+    let cells = far.iter().filter(|&&v| !(0.05..=0.95).contains(&v)).count();
     assert!(cells * 2 > far.len(), "only {cells} of {} far pixels alias: the floor is still mip-mapped", far.len());
 }
 

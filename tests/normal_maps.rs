@@ -18,21 +18,7 @@ const SIZE: usize = 32;
 
 /// The assets, written into `dir`; `None` (with a skip line) without pygltflib.
 fn assets(dir: &TempDir) -> Option<PathBuf> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/normal_map_assets.py");
-    let out = dir.path("assets");
-    let run = std::process::Command::new("python3").arg(&script).arg(&out).output();
-    match run {
-        Ok(o) if o.status.success() => Some(out),
-        Ok(o) if text(&o.stderr).contains("No module named") => {
-            common::skip("normal_maps: python3 has no pygltflib (pip install pygltflib)");
-            None
-        }
-        Ok(o) => panic!("normal_map_assets.py failed: {}", text(&o.stderr)),
-        Err(e) => {
-            common::skip(&format!("normal_maps: cannot run python3: {e}"));
-            None
-        }
-    }
+    common::gltf_assets(dir, "normal_map_assets.py", "normal_maps")
 }
 
 /// The unit normal the texel encodes (tangent space = world space on this quad).

@@ -188,6 +188,26 @@ pub fn skip(why: &str) {
     }
 }
 
+/// Runs the asset script `tools/gltf/SCRIPT` (pygltflib, not strahl's code) into
+/// `dir/assets`; returns that folder, or `None` (with a skip line naming `test`) when python3
+/// or its pygltflib is missing. A script that fails otherwise fails the test.
+pub fn gltf_assets(dir: &TempDir, script: &str, test: &str) -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf").join(script);
+    let out = dir.path("assets");
+    match Command::new("python3").arg(&path).arg(&out).output() {
+        Ok(o) if o.status.success() => Some(out),
+        Ok(o) if text(&o.stderr).contains("No module named") => {
+            skip(&format!("{test}: python3 has no pygltflib (pip install pygltflib)"));
+            None
+        }
+        Ok(o) => panic!("{script} failed: {}", text(&o.stderr)),
+        Err(e) => {
+            skip(&format!("{test}: cannot run python3: {e}"));
+            None
+        }
+    }
+}
+
 /// A fresh directory under the system's temporary directory, removed on drop.
 pub struct TempDir(pub PathBuf);
 
