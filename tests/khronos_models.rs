@@ -95,7 +95,10 @@ fn render(dir: &TempDir, gltf: &Path, spp: u32, extra: &[&str]) -> PathBuf {
     ];
     args.extend_from_slice(extra);
     let out = strahl(&args);
-    assert!(out.status.success(), "strahl failed: {}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "strahl failed: {stderr}");
+    // The models have no lights: the environment lights them, and no default light is added.
+    assert!(!stderr.contains("has no lights"), "a default light was added under --environment: {stderr}");
     exr
 }
 
