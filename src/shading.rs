@@ -22,8 +22,9 @@
 //! trilinear in its mip pyramid). The path tracer gives camera rays the camera's cone
 //! ([`crate::camera::Camera::ray_cone`]) and every later vertex a point (`footprint` 0: the
 //! full-resolution bilinear lookup), as glossy and diffuse bounces average texels anyway.
-//! Textures filtered so: base colour, metallic-roughness, emissive, and a lecture material's
-//! image texture; normal maps are read at full resolution ([`crate::surface`]).
+//! Textures filtered so: base colour, metallic-roughness, emissive, the extensions'
+//! ([`crate::material::ExtensionTextures`]), and a lecture material's image texture; normal
+//! maps are read at full resolution ([`crate::surface`]).
 //!
 //! The Whitted integrator does not come here: it shades the lecture fields of every material
 //! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).
