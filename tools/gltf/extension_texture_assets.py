@@ -21,7 +21,10 @@ A renderer that applies the texture renders the two files alike. Besides:
 - thickness.gltf: KHR_materials_volume with a thicknessTexture (which ray tracers ignore).
 - bad_index.gltf: a clearcoatTexture naming texture 7 of a file with one texture.
 - shared.gltf: specularTexture, sheenRoughnessTexture (both alpha) and clearcoatTexture,
-  clearcoatRoughnessTexture (both linear) naming the same image.
+  clearcoatRoughnessTexture (both linear) naming the same image, and a clearcoatNormalTexture.
+- transmission_texcoord1.gltf, transmission_transform_texcoord1.gltf, transmission_texcoord2.gltf,
+  transmission_transform.gltf: the transmission case's texture read through texCoord 1, through
+  KHR_texture_transform's texCoord 1, through texCoord 2, and with an offset and scale.
 
 values.json holds CASES for the test.
 """
@@ -230,6 +233,8 @@ def main(out):
     # KHR_texture_transform's texCoord, which overrides the textureInfo's.
     write_case(out, "transmission_texcoord1", CASES["transmission"], tex_coord=1)
     write_case(out, "transmission_transform_texcoord1", CASES["transmission"], transform={"texCoord": 1})
+    # texCoord 2: a set strahl does not read; TEXCOORD_0 is read instead (with a warning).
+    write_case(out, "transmission_texcoord2", CASES["transmission"], tex_coord=2)
     # KHR_texture_transform: u' = 0.25 u + 0.75 shows the texture's right half over the whole
     # quad (u' from 0.75, the centre of the third texel column, to 1).
     write_case(
@@ -263,6 +268,7 @@ def main(out):
             "clearcoatRoughnessFactor": 1.0,
             "clearcoatTexture": {"index": 0},
             "clearcoatRoughnessTexture": {"index": 0},
+            "clearcoatNormalTexture": {"index": 0},
         },
     )
     shared.extensions["KHR_materials_sheen"] = {
