@@ -173,14 +173,14 @@ impl Material {
     }
 
     /// Every image the material samples, in a fixed order: the diffuse texture's, then the
-    /// PBR part's base colour, metallic-roughness, emissive and normal textures'.
+    /// PBR part's ([`Pbr::slots`]), then the alpha plane's.
     pub fn images(&self) -> Vec<&std::sync::Arc<crate::texture::Image>> {
         let mut images = Vec::new();
         if let Texture::Image(t) = &self.diffuse {
             images.push(&t.texture.image);
         }
         if let Some(p) = &self.pbr {
-            for slot in p.slots().into_iter().flatten() {
+            for slot in p.slots() {
                 images.push(&slot.texture.image);
             }
         }
@@ -200,7 +200,7 @@ impl Material {
             t.texture = bare(&t.texture);
         }
         if let Some(p) = &mut m.pbr {
-            for slot in p.slots_mut().into_iter().flatten() {
+            for slot in p.slots_mut() {
                 slot.texture = bare(&slot.texture);
             }
         }
@@ -296,6 +296,84 @@ impl TextureSlot {
     fn mean(slot: &Option<TextureSlot>) -> Vec3 {
         slot.as_ref().map_or(Vec3::ONE, |t| t.texture.image.mean())
     }
+
+    /// What an optional texture multiplies its factor by at a hit: its filtered texel
+    /// ([`TextureSlot::at`]), or 1 when there is no texture.
+    #[inline]
+    pub fn or_one(slot: &Option<TextureSlot>, at: TexCoords) -> Vec3 {
+        slot.as_ref().map_or(Vec3::ONE, |t| t.at(at))
+    }
+}
+
+/// The textures of the material extensions strahl renders, each multiplying its factor in
+/// [`PbrParams`] at a hit (the channel each extension names; colour textures sRGB-decoded, the
+/// others linear; a texture read from the alpha channel is decoded as the image's alpha plane,
+/// [`crate::texture::Encoding::Alpha`], which holds α in every channel):
+///
+/// ```text
+/// transmission        = transmissionFactor        · transmissionTexture.r        KHR_materials_transmission
+/// specular            = specularFactor            · specularTexture.a            KHR_materials_specular
+/// specular colour     = specularColorFactor       · specularColorTexture.rgb     (sRGB)
+/// clearcoat           = clearcoatFactor           · clearcoatTexture.r           KHR_materials_clearcoat
+/// clearcoat roughness = clearcoatRoughnessFactor  · clearcoatRoughnessTexture.g
+/// sheen colour        = sheenColorFactor          · sheenColorTexture.rgb        (sRGB) KHR_materials_sheen
+/// sheen roughness     = sheenRoughnessFactor      · sheenRoughnessTexture.a
+/// ```
+///
+/// (`KHR_materials_volume`'s `thicknessTexture` is for renderers that cannot trace the
+/// distance through the mesh; as that extension asks of ray tracers, strahl ignores it.)
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExtensionTextures {
+    pub transmission: Option<TextureSlot>,
+    /// Decoded as the alpha plane.
+    pub specular: Option<TextureSlot>,
+    pub specular_color: Option<TextureSlot>,
+    pub clearcoat: Option<TextureSlot>,
+    pub clearcoat_roughness: Option<TextureSlot>,
+    pub sheen_color: Option<TextureSlot>,
+    /// Decoded as the alpha plane.
+    pub sheen_roughness: Option<TextureSlot>,
+}
+
+impl ExtensionTextures {
+    /// The factors `f` multiplied by the textures at `at` (the table above).
+    pub fn apply(&self, f: PbrParams, at: TexCoords) -> PbrParams {
+        let t = |slot: &Option<TextureSlot>| TextureSlot::or_one(slot, at);
+        PbrParams {
+            transmission: f.transmission * t(&self.transmission).x,
+            specular: f.specular * t(&self.specular).x,
+            specular_color: f.specular_color * t(&self.specular_color),
+            clearcoat: f.clearcoat * t(&self.clearcoat).x,
+            clearcoat_roughness: f.clearcoat_roughness * t(&self.clearcoat_roughness).y,
+            sheen_color: f.sheen_color * t(&self.sheen_color),
+            sheen_roughness: f.sheen_roughness * t(&self.sheen_roughness).x,
+            ..f
+        }
+    }
+
+    fn slots(&self) -> [Option<&TextureSlot>; 7] {
+        [
+            self.transmission.as_ref(),
+            self.specular.as_ref(),
+            self.specular_color.as_ref(),
+            self.clearcoat.as_ref(),
+            self.clearcoat_roughness.as_ref(),
+            self.sheen_color.as_ref(),
+            self.sheen_roughness.as_ref(),
+        ]
+    }
+
+    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 7] {
+        [
+            self.transmission.as_mut(),
+            self.specular.as_mut(),
+            self.specular_color.as_mut(),
+            self.clearcoat.as_mut(),
+            self.clearcoat_roughness.as_mut(),
+            self.sheen_color.as_mut(),
+            self.sheen_roughness.as_mut(),
+        ]
+    }
 }
 
 /// The glTF 2.0 metallic-roughness material and the extensions strahl renders, as factors and
@@ -307,6 +385,8 @@ impl TextureSlot {
 /// roughness   = roughness · metallicRoughnessTexture(uv).g     (linear)
 /// emission    = emission  · emissiveTexture(uv) (sRGB-decoded), emission = emissiveFactor · strength
 /// ```
+///
+/// and the extensions' factors times their textures ([`ExtensionTextures`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pbr {
     /// The factors: `baseColorFactor` (RGB, linear), `metallicFactor`, `roughnessFactor` and
@@ -331,6 +411,8 @@ pub struct Pbr {
     /// `KHR_materials_unlit`: the surface shows its base colour as emitted radiance and
     /// scatters nothing.
     pub unlit: bool,
+    /// The textures of `KHR_materials_transmission`, `_specular`, `_clearcoat` and `_sheen`.
+    pub extension_textures: ExtensionTextures,
 }
 
 impl Default for Pbr {
@@ -347,52 +429,59 @@ impl Default for Pbr {
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
             unlit: false,
+            extension_textures: ExtensionTextures::default(),
         }
     }
 }
 
 impl Pbr {
-    /// The texture slots, in a fixed order.
-    pub fn slots(&self) -> [Option<&TextureSlot>; 4] {
+    /// The texture slots, in a fixed order: base colour, metallic-roughness, emissive, normal,
+    /// then the extensions' ([`ExtensionTextures`]).
+    pub fn slots(&self) -> impl Iterator<Item = &TextureSlot> {
         [
             self.base_color_texture.as_ref(),
             self.metallic_roughness_texture.as_ref(),
             self.emissive_texture.as_ref(),
             self.normal_texture.as_ref(),
         ]
+        .into_iter()
+        .chain(self.extension_textures.slots())
+        .flatten()
     }
 
-    fn slots_mut(&mut self) -> [Option<&mut TextureSlot>; 4] {
+    fn slots_mut(&mut self) -> impl Iterator<Item = &mut TextureSlot> {
         [
             self.base_color_texture.as_mut(),
             self.metallic_roughness_texture.as_mut(),
             self.emissive_texture.as_mut(),
             self.normal_texture.as_mut(),
         ]
+        .into_iter()
+        .chain(self.extension_textures.slots_mut())
+        .flatten()
     }
 
     /// The base colour at a hit: factor × texture × vertex colour `color`.
     pub fn base_color_at(&self, uv: impl Into<TexCoords>, color: Vec3) -> Vec3 {
-        let uv = uv.into();
-        let texture = self.base_color_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
-        self.factors.base_color * texture * color
+        self.factors.base_color * TextureSlot::or_one(&self.base_color_texture, uv.into()) * color
     }
 
     /// What `bsdf::gltf` takes at a hit with texture coordinates `uv` and vertex colour `color`.
     pub fn params_at(&self, uv: impl Into<TexCoords>, color: Vec3) -> PbrParams {
         let uv = uv.into();
-        let mr = self.metallic_roughness_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv));
-        PbrParams {
+        let mr = TextureSlot::or_one(&self.metallic_roughness_texture, uv);
+        let factors = PbrParams {
             base_color: self.base_color_at(uv, color),
             metallic: self.factors.metallic * mr.z,
             roughness: self.factors.roughness * mr.y,
             ..self.factors
-        }
+        };
+        self.extension_textures.apply(factors, uv)
     }
 
     /// The emitted radiance at a hit: `emission × emissiveTexture(uv)`.
     pub fn emission_at(&self, uv: impl Into<TexCoords>) -> Vec3 {
-        self.emission * self.emissive_texture.as_ref().map_or(Vec3::ONE, |t| t.at(uv))
+        self.emission * TextureSlot::or_one(&self.emissive_texture, uv.into())
     }
 
     /// The absorption coefficient inside (`KHR_materials_volume`, Beer–Lambert):
@@ -410,7 +499,8 @@ impl Pbr {
     /// The lecture material closest to this one, which the Whitted integrator renders
     /// (the table in `docs/scene-format.md`). Textures other than the base colour's enter by
     /// their mean texel: `m = metallic · mean(B)`, `r = roughness · mean(G)`, emission
-    /// `emission · mean(emissiveTexture)`; `base` is `base_color · mean(baseColorTexture)`.
+    /// `emission · mean(emissiveTexture)`, `t = transmission · mean(transmissionTexture.r)`;
+    /// `base` is `base_color · mean(baseColorTexture)`.
     ///
     /// - transmission `t > 0` → glass: `k_t = t·base`, `η = ior`, diffuse
     ///   `(1 − t)(1 − m)·baseColor(uv)`;
@@ -433,12 +523,13 @@ impl Pbr {
             None => Texture::Constant(self.factors.base_color * k),
         };
         let emission = self.emission * TextureSlot::mean(&self.emissive_texture);
+        let transmission = self.factors.transmission * TextureSlot::mean(&self.extension_textures.transmission).x;
         let mut m = Material { name, emission, ior: self.factors.ior, ..Material::default() };
         if self.unlit {
             m.diffuse = diffuse(1.0);
             m.emission = Vec3::ZERO;
-        } else if self.factors.transmission > 0.0 {
-            let t = self.factors.transmission.min(1.0);
+        } else if transmission > 0.0 {
+            let t = transmission.min(1.0);
             m.transmission = base * t;
             m.diffuse = diffuse((1.0 - t) * (1.0 - metallic));
         } else if metallic >= 1.0 && roughness <= MIRROR_ROUGHNESS {

@@ -23,8 +23,9 @@
 //! narrowed to one sample's ([`crate::camera::Camera::ray_cone`],
 //! [`crate::camera::RayCone::per_sample`]) and every later vertex a point (`footprint` 0: the
 //! full-resolution bilinear lookup), as glossy and diffuse bounces average texels anyway.
-//! Textures filtered so: base colour, metallic-roughness, emissive, and a lecture material's
-//! image texture; normal maps are read at full resolution ([`crate::surface`]).
+//! Textures filtered so: base colour, metallic-roughness, emissive, the extensions'
+//! ([`crate::material::ExtensionTextures`]), and a lecture material's image texture; normal
+//! maps are read at full resolution ([`crate::surface`]).
 //!
 //! The Whitted integrator does not come here: it shades the lecture fields of every material
 //! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).

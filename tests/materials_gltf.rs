@@ -148,15 +148,19 @@ fn extensions_are_read_or_named_in_a_warning() {
     let Some(assets) = assets(&dir) else { return };
     let path = assets.join("extensions.gltf");
     let (_, stderr) = render(&dir, &path, 0.0, "path");
-    for warning in [
-        "material 0: occlusionTexture ignored",
-        "material 0: KHR_materials_clearcoat: clearcoatTexture ignored",
-        "material 0: KHR_materials_specular: specularTexture ignored",
-        "material 0: extension KHR_materials_iridescence is not supported",
-    ] {
+    for warning in
+        ["material 0: occlusionTexture ignored", "material 0: extension KHR_materials_iridescence is not supported"]
+    {
         assert!(stderr.contains(warning), "no warning {warning:?} in:\n{stderr}");
     }
-    for read in ["KHR_materials_sheen:", "KHR_materials_volume:", "sheenColor", "clearcoatFactor"] {
+    for read in [
+        "KHR_materials_sheen:",
+        "KHR_materials_volume:",
+        "sheenColor",
+        "clearcoatFactor",
+        "clearcoatTexture",
+        "specularTexture",
+    ] {
         assert!(!stderr.contains(read), "{read:?} is read, yet warned about:\n{stderr}");
     }
     let scene = strahl::scene::from_gltf_file(&path, None).unwrap().scene;
@@ -164,6 +168,8 @@ fn extensions_are_read_or_named_in_a_warning() {
     assert_eq!((pbr.factors.clearcoat, pbr.factors.clearcoat_roughness), (0.5, 0.25));
     assert_eq!((pbr.factors.sheen_color.to_array(), pbr.factors.sheen_roughness), ([0.2, 0.3, 0.4], 0.6));
     assert_eq!(pbr.factors.specular, 0.7);
+    let textures = &pbr.extension_textures;
+    assert!(textures.clearcoat.is_some() && textures.specular.is_some(), "{textures:?}");
     assert_eq!(
         (pbr.thickness, pbr.attenuation_color.to_array(), pbr.attenuation_distance),
         (0.1, [0.5, 0.25, 1.0], 2.0)

@@ -469,6 +469,24 @@ struct Reader<'a> {
     instancing: &'a HashMap<usize, Instancing>,
 }
 
+/// `KHR_texture_transform` as a texture's `textureInfo` gives it.
+struct UvTransform {
+    offset: [f32; 2],
+    scale: [f32; 2],
+    rotation: f32,
+    /// Replaces the `textureInfo`'s `texCoord` when given.
+    tex_coord: Option<u32>,
+}
+
+/// The extension's JSON form, where the gltf crate leaves a `textureInfo` as JSON.
+type TextureTransformJson = gltf::json::extensions::texture::TextureTransform;
+
+impl From<TextureTransformJson> for UvTransform {
+    fn from(t: TextureTransformJson) -> UvTransform {
+        UvTransform { offset: t.offset.0, scale: t.scale.0, rotation: t.rotation.0, tex_coord: t.tex_coord }
+    }
+}
+
 /// `KHR_texture_transform`'s affine map of glTF texture coordinates (see `Reader::texture`).
 fn uv_transform([ou, ov]: [f32; 2], [su, sv]: [f32; 2], rotation: f32) -> [[f32; 3]; 2] {
     let (sin, cos) = rotation.sin_cos();
@@ -531,23 +549,13 @@ impl Reader<'_> {
             ..Pbr::default()
         };
         if let Some(info) = pbr.base_color_texture() {
-            let slot =
-                self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
-            out.base_color_texture = Some(slot);
+            out.base_color_texture = Some(self.info_texture(&info, Encoding::Srgb, what)?);
         }
         if let Some(info) = pbr.metallic_roughness_texture() {
-            out.metallic_roughness_texture = Some(self.texture(
-                &info.texture(),
-                info.tex_coord(),
-                info.texture_transform(),
-                Encoding::Linear,
-                what,
-            )?);
+            out.metallic_roughness_texture = Some(self.info_texture(&info, Encoding::Linear, what)?);
         }
         if let Some(info) = material.emissive_texture() {
-            let slot =
-                self.texture(&info.texture(), info.tex_coord(), info.texture_transform(), Encoding::Srgb, what)?;
-            out.emissive_texture = Some(slot);
+            out.emissive_texture = Some(self.info_texture(&info, Encoding::Srgb, what)?);
         }
         if let Some(normal) = material.normal_texture() {
             self.normal_texture(&normal, &mut out, what)?;
@@ -555,32 +563,27 @@ impl Reader<'_> {
         if material.occlusion_texture().is_some() {
             self.warn(format!("{what}: occlusionTexture ignored (the path tracer computes occlusion)"));
         }
+        let textures = &mut out.extension_textures;
         if let Some(t) = material.transmission() {
             out.factors.transmission = t.transmission_factor();
-            if t.transmission_texture().is_some() {
-                self.warn(format!(
-                    "{what}: KHR_materials_transmission: transmissionTexture ignored (transmissionFactor is used)"
-                ));
+            if let Some(info) = t.transmission_texture() {
+                textures.transmission = Some(self.info_texture(&info, Encoding::Linear, what)?);
             }
         }
         if let Some(v) = material.volume() {
+            // thicknessTexture: a ray tracer measures the distance inside (ExtensionTextures).
             out.thickness = v.thickness_factor();
             out.attenuation_color = Vec3::from(v.attenuation_color());
             out.attenuation_distance = v.attenuation_distance();
-            if v.thickness_texture().is_some() {
-                self.warn(format!("{what}: KHR_materials_volume: thicknessTexture ignored (thicknessFactor is used)"));
-            }
         }
         if let Some(sp) = material.specular() {
             out.factors.specular = sp.specular_factor();
             out.factors.specular_color = Vec3::from(sp.specular_color_factor());
-            for (texture, name) in [
-                (sp.specular_texture().is_some(), "specularTexture"),
-                (sp.specular_color_texture().is_some(), "specularColorTexture"),
-            ] {
-                if texture {
-                    self.warn(format!("{what}: KHR_materials_specular: {name} ignored (its factor is used)"));
-                }
+            if let Some(info) = sp.specular_texture() {
+                textures.specular = Some(self.info_texture(&info, Encoding::Alpha, what)?);
+            }
+            if let Some(info) = sp.specular_color_texture() {
+                textures.specular_color = Some(self.info_texture(&info, Encoding::Srgb, what)?);
             }
         }
         for (name, value) in material.extensions().into_iter().flatten() {
@@ -588,17 +591,21 @@ impl Reader<'_> {
                 "KHR_materials_clearcoat" => {
                     out.factors.clearcoat = json_number(value, "clearcoatFactor", 0.0);
                     out.factors.clearcoat_roughness = json_number(value, "clearcoatRoughnessFactor", 0.0);
-                    self.warn_textures(
-                        value,
-                        name,
-                        &["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"],
-                        what,
-                    );
+                    textures.clearcoat = self.json_texture(value, "clearcoatTexture", Encoding::Linear, what)?;
+                    textures.clearcoat_roughness =
+                        self.json_texture(value, "clearcoatRoughnessTexture", Encoding::Linear, what)?;
+                    if value.get("clearcoatNormalTexture").is_some() {
+                        self.warn(format!(
+                            "{what}: {name}: clearcoatNormalTexture ignored (the coat uses the base layer's normal)"
+                        ));
+                    }
                 }
                 "KHR_materials_sheen" => {
                     out.factors.sheen_color = json_colour(value, "sheenColorFactor", Vec3::ZERO);
                     out.factors.sheen_roughness = json_number(value, "sheenRoughnessFactor", 0.0);
-                    self.warn_textures(value, name, &["sheenColorTexture", "sheenRoughnessTexture"], what);
+                    textures.sheen_color = self.json_texture(value, "sheenColorTexture", Encoding::Srgb, what)?;
+                    textures.sheen_roughness =
+                        self.json_texture(value, "sheenRoughnessTexture", Encoding::Alpha, what)?;
                 }
                 other => self.warn(format!("{what}: extension {other} is not supported; ignored")),
             }
@@ -606,25 +613,23 @@ impl Reader<'_> {
         Ok(out)
     }
 
-    /// `normalTexture` (linear) with its `scale` and `KHR_texture_transform`, into `out`.
+    /// `normalTexture` (linear) with its `scale`, `texCoord` and `KHR_texture_transform`, into `out`.
     fn normal_texture(
         &mut self,
         normal: &gltf::material::NormalTexture,
         out: &mut Pbr,
         what: &str,
     ) -> Result<(), String> {
-        let mut slot = self.texture(&normal.texture(), normal.tex_coord(), None, Encoding::Linear, what)?;
-        if let Some(value) = normal.extension_value("KHR_texture_transform") {
-            let t: gltf::json::extensions::texture::TextureTransform = serde_json::from_value(value.clone())
-                .map_err(|e| format!("{what}: normalTexture: KHR_texture_transform: {e}"))?;
-            let matrix = uv_transform(t.offset.0, t.scale.0, t.rotation.0);
-            if !matrix.iter().flatten().all(|x| x.is_finite()) {
-                return Err(format!("{what}: normalTexture: KHR_texture_transform has a value that is not finite"));
-            }
-            slot.transform = Some(matrix);
-            slot.tex_coord = t.tex_coord.unwrap_or(slot.tex_coord);
-        }
-        out.normal_texture = Some(slot);
+        let transform = match normal.extension_value("KHR_texture_transform") {
+            Some(value) => Some(
+                serde_json::from_value::<TextureTransformJson>(value.clone())
+                    .map_err(|e| format!("{what}: normalTexture: KHR_texture_transform: {e}"))?
+                    .into(),
+            ),
+            None => None,
+        };
+        out.normal_texture =
+            Some(self.texture(&normal.texture(), normal.tex_coord(), transform, Encoding::Linear, what)?);
         out.normal_scale = normal.scale();
         Ok(())
     }
@@ -641,13 +646,7 @@ impl Reader<'_> {
         let pbr = material.pbr_metallic_roughness();
         let texture = match (mode, pbr.base_color_texture()) {
             (AlphaMode::Opaque, _) | (_, None) => None,
-            (_, Some(info)) => Some(self.texture(
-                &info.texture(),
-                info.tex_coord(),
-                info.texture_transform(),
-                Encoding::Alpha,
-                what,
-            )?),
+            (_, Some(info)) => Some(self.info_texture(&info, Encoding::Alpha, what)?),
         };
         let coverage = Coverage::of(mode, pbr.base_color_factor()[3], texture, material.double_sided());
         if let Some(problem) = coverage.as_ref().and_then(Coverage::problem) {
@@ -656,13 +655,45 @@ impl Reader<'_> {
         Ok(coverage)
     }
 
-    /// Warns about each of `keys` (textures of extension `extension`) that `value` holds.
-    fn warn_textures(&mut self, value: &serde_json::Value, extension: &str, keys: &[&str], what: &str) {
-        for key in keys {
-            if value.get(key).is_some() {
-                self.warn(format!("{what}: {extension}: {key} ignored (its factor is used)"));
-            }
-        }
+    /// A texture of a `textureInfo` the gltf crate reads (validated by it), with its
+    /// `texCoord` and `KHR_texture_transform`.
+    fn info_texture(
+        &mut self,
+        info: &gltf::texture::Info,
+        encoding: Encoding,
+        what: &str,
+    ) -> Result<TextureSlot, String> {
+        let transform = info.texture_transform().map(|t| UvTransform {
+            offset: t.offset(),
+            scale: t.scale(),
+            rotation: t.rotation(),
+            tex_coord: t.tex_coord(),
+        });
+        self.texture(&info.texture(), info.tex_coord(), transform, encoding, what)
+    }
+
+    /// The texture of the `textureInfo` named `key` in an extension's JSON object `value`
+    /// (`KHR_materials_clearcoat`, `_sheen`: extensions the gltf crate leaves as JSON, so
+    /// their texture index is checked here), `None` when it has none.
+    fn json_texture(
+        &mut self,
+        value: &serde_json::Value,
+        key: &str,
+        encoding: Encoding,
+        what: &str,
+    ) -> Result<Option<TextureSlot>, String> {
+        let Some(info) = value.get(key) else { return Ok(None) };
+        let info: gltf::json::texture::Info =
+            serde_json::from_value(info.clone()).map_err(|e| format!("{what}: {key}: {e}"))?;
+        let index = info.index.value();
+        let count = self.doc.textures().len();
+        let texture = self
+            .doc
+            .textures()
+            .nth(index)
+            .ok_or_else(|| format!("{what}: {key}: texture {index} does not exist (the file has {count})"))?;
+        let transform = info.extensions.and_then(|e| e.texture_transform).map(UvTransform::from);
+        self.texture(&texture, info.tex_coord, transform, encoding, what).map(Some)
     }
 
     /// A material's texture: its image (decoded once per file and encoding) with its sampler's
@@ -686,12 +717,12 @@ impl Reader<'_> {
         &mut self,
         texture: &gltf::Texture,
         tex_coord: u32,
-        transform: Option<gltf::texture::TextureTransform>,
+        transform: Option<UvTransform>,
         encoding: Encoding,
         what: &str,
     ) -> Result<TextureSlot, String> {
-        let tex_coord = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(tex_coord);
-        let matrix = transform.map(|t| uv_transform(t.offset(), t.scale(), t.rotation()));
+        let mut tex_coord = transform.as_ref().and_then(|t| t.tex_coord).unwrap_or(tex_coord);
+        let matrix = transform.map(|t| uv_transform(t.offset, t.scale, t.rotation));
         if matrix.is_some_and(|m| !m.iter().flatten().all(|x| x.is_finite())) {
             return Err(format!(
                 "{what}: texture {}: KHR_texture_transform has a value that is not finite",
@@ -700,6 +731,7 @@ impl Reader<'_> {
         }
         if tex_coord > 1 {
             self.warn(format!("{what}: texture {} uses TEXCOORD_{tex_coord}; TEXCOORD_0 is used", texture.index()));
+            tex_coord = 0;
         }
         let image = texture.source();
         let index = image.index();
