@@ -21,21 +21,7 @@ const SIZE: usize = 64;
 
 /// The assets, written into `dir`; `None` (with a skip line) without pygltflib.
 fn assets(dir: &TempDir) -> Option<PathBuf> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/extension_texture_assets.py");
-    let out = dir.path("assets");
-    let run = std::process::Command::new("python3").arg(&script).arg(&out).output();
-    match run {
-        Ok(o) if o.status.success() => Some(out),
-        Ok(o) if text(&o.stderr).contains("No module named") => {
-            common::skip("gltf_extension_textures: python3 has no pygltflib (pip install pygltflib)");
-            None
-        }
-        Ok(o) => panic!("extension_texture_assets.py failed: {}", text(&o.stderr)),
-        Err(e) => {
-            common::skip(&format!("gltf_extension_textures: cannot run python3: {e}"));
-            None
-        }
-    }
+    common::gltf_assets(dir, "extension_texture_assets.py", "gltf_extension_textures")
 }
 
 /// The quad of `gltf` seen from z = 4 (40° field of view) under a directional light arriving

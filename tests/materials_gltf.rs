@@ -22,21 +22,7 @@ const SIZE: u32 = 64;
 
 /// The assets, written into `dir`; `None` (with a skip line) without pygltflib.
 fn assets(dir: &TempDir) -> Option<PathBuf> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/materials_assets.py");
-    let out = dir.path("assets");
-    let run = std::process::Command::new("python3").arg(&script).arg(&out).output();
-    match run {
-        Ok(o) if o.status.success() => Some(out),
-        Ok(o) if text(&o.stderr).contains("No module named") => {
-            common::skip("materials_gltf: python3 has no pygltflib (pip install pygltflib)");
-            None
-        }
-        Ok(o) => panic!("materials_assets.py failed: {}", text(&o.stderr)),
-        Err(e) => {
-            common::skip(&format!("materials_gltf: cannot run python3: {e}"));
-            None
-        }
-    }
+    common::gltf_assets(dir, "materials_assets.py", "materials_gltf")
 }
 
 /// A TOML scene showing `gltf` with the given background, rendered by `integrator`; the
