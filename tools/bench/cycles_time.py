@@ -1,0 +1,440 @@
+"""strahl against Blender Cycles (CPU): samples per second, and the CPU time each takes to reach
+the same error, on one scene given to both as the same file (docs/performance.md, "strahl
+against Cycles: time to the same error"; `make bench-cycles` runs it on both scenes).
+
+    python3 tools/bench/cycles_time.py --scene cornell --work target/bench-cycles
+    python3 tools/bench/cycles_time.py --scene dense --work target/bench-cycles
+    # options, with their defaults:
+    #   --strahl target/release/strahl (cargo build --release)
+    #   --size 240x135 --spp 4,16,64,256 --adaptive-spp 128,256,512 --reference-spp 1024 --threads 2
+    #   --sps-size 1920x1080 --sps-spp 1,4 --sps-threads 1,2 --target 0.02 --depth 8
+    #   --only sps|error (one half of the runs)
+
+Needs `blender` (3.4, run headless with `-b`), python3 with numpy and OpenEXR, and a release
+strahl. Every run's record is kept in WORK/SCENE/runs.json, so an interrupted benchmark resumes
+where it stopped; delete the directory to measure again.
+
+The scene. tools/gltf/blender_cornell.py builds it in Blender and writes it twice: as glTF
+(exported by Blender's own exporter), which strahl renders, and as the .blend Cycles renders,
+set to what strahl computes: the same max bounces (`--depth 8` scatterings, Cycles' max bounces
+7 of every kind), no clamps, no glossy filter, no denoiser, a box pixel filter one pixel wide
+(strahl's pixel filter, as tests/cycles.rs sets it), adaptive sampling off. `cornell` is the
+Cornell-like room of tests/cycles.rs (diffuse walls and light, a diffuse block, a mirror-like
+metal sphere and a glass sphere, 8,000 triangles); `dense` the same room with a Suzanne
+subdivided to 1,007,616 triangles in place of the block and a 200 x 200 floor grid, both textured
+with a UV grid image (1,095,568 triangles). All sizes must have the aspect of the first one the
+scene was exported at (16:9 by default), since the glTF camera keeps it.
+
+The runs, each a fresh process, timed from outside: wall time, and user + system CPU time of
+the process (os.wait4's rusage of that one child). On a shared machine the CPU time is the
+figure to compare: it does not count the time a thread waits for a core. The renderers take
+turns (strahl first at one setting, Cycles first at the next) and the load average is recorded
+before and after each run.
+
+- Samples per second, at `--sps-size` on each of `--sps-threads`: strahl and Cycles (adaptive
+  sampling off) at each of `--sps-spp`. The CPU time of a run is `U0 + N·u` for N samples per
+  pixel: the line through the runs gives `u`, the CPU time per sample per pixel, and `U0`, what
+  a run costs before and after sampling. Both renderers also say where their wall time went:
+  Cycles writes its synchronisation time (scene export to the device, shaders, BVH build) and
+  its rendering time into the EXR's header (`cycles.ViewLayer.synchronization_time`,
+  `render_time`); strahl prints its BVH build and its rendering time. What is left of the wall
+  time is start-up (Blender's own is seconds: it loads its Python and add-ons) and output.
+- Error against a reference, at `--size`: strahl and Cycles at each of `--spp`, Cycles with
+  Blender's default adaptive sampling (noise threshold 0.01, automatic minimum samples) at each
+  of `--adaptive-spp` as its maximum, each against its own renderer's reference of
+  `--reference-spp` samples per pixel, so that the figure measures noise, not the systematic
+  differences between the two renderers (tests/cycles.rs measures those). RMSE over the R, G
+  and B values of every pixel. The reference shares no sample with the images it judges:
+  Cycles' reference is rendered with another seed (1, the others 0); strahl's samples are a
+  function of the pixel's index alone, so its reference is rendered at twice the width and
+  height with a quarter of the samples and averaged 2 x 2, which with a box filter one pixel
+  wide is the same estimate of each pixel from other sample sequences. The reference's own
+  noise is subtracted: RMSE = sqrt(MSE - var_ref), where for strahl var_ref is the mean of its
+  reference's variance pass (the four sub-pixels' variances of the mean over 16), and for
+  Cycles (which has no variance pass) the constant c of the fit MSE(N) = a/N + c over its
+  uniform runs; the same fit is printed for strahl as a check of its variance pass. The RMSE
+  is given relative to the reference's image mean.
+- Time to a fixed error: the line through the runs' (log CPU seconds of sampling, log RMSE)
+  gives the CPU time at which each renderer reaches `--target` (relative RMSE), sampling alone
+  (the run's CPU time less U0 of the error runs' own line) and with U0 added; a target outside
+  the runs' range is extrapolated along the line and marked so. The time at a given error
+  scales with the pixel count; the figures are for `--size`.
+"""
+
+import argparse
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+import OpenEXR
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+STRAHL_LAYER = "ViewLayer.Combined."
+VARIANCE_LAYER = "ViewLayer.Variance."
+
+
+def parse_size(text):
+    w, h = text.lower().split("x")
+    return int(w), int(h)
+
+
+def parse_list(text):
+    return [int(v) for v in text.split(",") if v]
+
+
+def clock_seconds(text):
+    """Blender's "MM:SS.ss" or "HH:MM:SS.ss" as seconds."""
+    seconds = 0.0
+    for part in text.strip().split(":"):
+        seconds = 60.0 * seconds + float(part)
+    return seconds
+
+
+def blender_env():
+    """The environment for Blender: Debian's Blender takes its Python home from the first
+    python3 on PATH, so a pyenv or virtualenv python running this script (which puts its own
+    bin/ first) would hide the system's modules (numpy, which its glTF exporter needs)."""
+    env = dict(os.environ)
+    hidden = [d for d in (env.get("PYENV_ROOT"), env.get("VIRTUAL_ENV"), sys.prefix) if d and d != "/usr"]
+    dirs = env.get("PATH", "").split(os.pathsep)
+    env["PATH"] = os.pathsep.join(d for d in dirs if not any(d.startswith(h) for h in hidden))
+    return env
+
+
+def timed(cmd, log_path):
+    """Runs `cmd` with its output in `log_path`; returns wall seconds, user and system CPU
+    seconds of that process (and its children, which neither renderer has), and the load
+    average before and after."""
+    load_before = os.getloadavg()[0]
+    start = time.monotonic()
+    with open(log_path, "w") as log:
+        env = blender_env() if cmd[0] == "blender" else None
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
+        _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.monotonic() - start
+    code = os.waitstatus_to_exitcode(status)
+    if code != 0:
+        with open(log_path) as log:
+            tail = log.read()[-3000:]
+        sys.exit(f"{cmd[0]} failed ({code}); {log_path}:\n{tail}")
+    return {
+        "wall": wall,
+        "user": usage.ru_utime,
+        "sys": usage.ru_stime,
+        "load_before": load_before,
+        "load_after": os.getloadavg()[0],
+    }
+
+
+def read_channels(path):
+    with OpenEXR.File(path, separate_channels=True) as f:
+        header = dict(f.header())  # before reading the channels, which empties it
+        return {name: np.asarray(ch.pixels, dtype=np.float64) for name, ch in f.channels().items()}, header
+
+
+def rgb(channels, prefix):
+    return np.stack([channels[prefix + c] for c in "RGB"], axis=-1)
+
+
+class Bench:
+    def __init__(self, args):
+        self.args = args
+        self.dir = os.path.abspath(os.path.join(args.work, args.scene))
+        os.makedirs(self.dir, exist_ok=True)
+        self.records_path = os.path.join(self.dir, "runs.json")
+        self.records = {}
+        if os.path.exists(self.records_path):
+            with open(self.records_path) as f:
+                self.records = json.load(f)
+        self.gltf = os.path.join(self.dir, "cornell.gltf")
+        self.blend = os.path.join(self.dir, "cornell.blend")
+
+    def save(self):
+        tmp = self.records_path + ".tmp"
+        with open(tmp, "w") as f:
+            json.dump(self.records, f, indent=1, sort_keys=True)
+        os.replace(tmp, self.records_path)
+
+    def export(self):
+        if os.path.exists(self.gltf) and os.path.exists(self.blend):
+            return
+        w, h = parse_size(self.args.size)
+        flags = ["blend"] + (["dense"] if self.args.scene == "dense" else [])
+        print(f"exporting the {self.args.scene} scene with Blender into {self.dir}", flush=True)
+        cmd = ["blender", "-b", "--factory-startup", "--python", os.path.join(ROOT, "tools/gltf/blender_cornell.py")]
+        cmd += ["--", self.dir, f"{w}x{h}", "0", str(self.args.depth)] + flags
+        timed(cmd, os.path.join(self.dir, "export.log"))
+
+    def run(self, renderer, size, spp, threads, kind="test"):
+        """One render (cached): `renderer` strahl | cycles | cycles-adaptive; `kind` test |
+        reference. Returns its record."""
+        w, h = size
+        key = f"{renderer}-{kind}-{w}x{h}-{spp}spp-{threads}t"
+        if key in self.records and os.path.exists(self.records[key]["exr"]):
+            return self.records[key]
+        exr = os.path.join(self.dir, key + ".exr")
+        log = os.path.join(self.dir, key + ".log")
+        if renderer == "strahl":
+            if kind == "reference":
+                w, h, spp_run = 2 * w, 2 * h, spp // 4
+            else:
+                spp_run = spp
+            cmd = [self.args.strahl, "render", self.gltf, "-o", exr, "--width", str(w), "--height", str(h)]
+            cmd += ["--spp", str(spp_run), "--depth", str(self.args.depth), "--threads", str(threads)]
+            cmd += ["--integrator", "path", "--passes", "combined,variance" if kind == "reference" else "combined"]
+            cmd += ["--progress-interval", "30"]
+        else:
+            adaptive = renderer == "cycles-adaptive"
+            seed = 1 if kind == "reference" else 0
+            setup = (
+                "import bpy; s = bpy.context.scene; c = s.cycles; "
+                f"c.samples = {spp}; c.seed = {seed}; c.use_adaptive_sampling = {adaptive}; "
+                "c.adaptive_threshold = 0.01; c.adaptive_min_samples = 0; "
+                f"s.render.resolution_x = {w}; s.render.resolution_y = {h}; s.render.resolution_percentage = 100"
+            )
+            out = exr[: -len(".exr")] + "-#"
+            cmd = ["blender", "-b", self.blend, "--python-expr", setup, "-t", str(threads), "-o", out, "-f", "1"]
+        print(f"  {key} ...", end="", flush=True)
+        record = timed(cmd, log)
+        if renderer != "strahl":
+            os.replace(exr[: -len(".exr")] + "-1.exr", exr)
+        record.update(self.phases(renderer, exr, log))
+        record.update({"exr": exr, "renderer": renderer, "kind": kind, "width": size[0], "height": size[1]})
+        record.update({"spp": spp, "threads": threads})
+        print(
+            f" wall {record['wall']:.1f} s, CPU {record['user'] + record['sys']:.1f} s, "
+            f"setup {record['setup']:.2f} s, sampling {record['sampling']:.1f} s, load {record['load_before']:.1f}",
+            flush=True,
+        )
+        self.records[key] = record
+        self.save()
+        return record
+
+    def phases(self, renderer, exr, log):
+        """Wall seconds of setup (scene to the device, BVH build) and of sampling, as the
+        renderer reports them."""
+        if renderer == "strahl":
+            with open(log) as f:
+                text = f.read()
+            build = re.search(r"BVH built in ([0-9.]+) ms", text)
+            render = re.search(r"time: ([0-9.]+) s rendering", text)
+            return {"setup": float(build.group(1)) / 1e3, "sampling": float(render.group(1))}
+        _, header = read_channels(exr)
+        return {
+            "setup": clock_seconds(header["cycles.ViewLayer.synchronization_time"]),
+            "sampling": clock_seconds(header["cycles.ViewLayer.render_time"]),
+        }
+
+    def image(self, record):
+        """The RGB image of a run, and for a strahl reference the variance of its pixels'
+        means (2 x 2 pooled)."""
+        channels, _ = read_channels(record["exr"])
+        if record["renderer"] == "strahl":
+            img = rgb(channels, STRAHL_LAYER)
+        else:
+            img = np.stack([channels[c] for c in "RGB"], axis=-1)
+        if record["renderer"] == "strahl" and record["kind"] == "reference":
+            h, w = record["height"], record["width"]
+            img = img.reshape(h, 2, w, 2, 3).mean(axis=(1, 3))
+            var = rgb(channels, VARIANCE_LAYER).reshape(h, 2, w, 2, 3).sum(axis=(1, 3)) / 16.0
+            return img, var
+        return img, None
+
+
+def line_fit(xs, ys):
+    """Least-squares y = a + b·x."""
+    b, a = np.polyfit(np.asarray(xs, float), np.asarray(ys, float), 1)
+    return a, b
+
+
+def mse_fit(ns, mses):
+    """MSE(N) = a/N + c, least squares relative to each MSE (so every N counts alike)."""
+    ns, mses = np.asarray(ns, float), np.asarray(mses, float)
+    design = np.stack([1.0 / ns, np.ones_like(ns)], axis=1) / mses[:, None]
+    (a, c), *_ = np.linalg.lstsq(design, np.ones_like(ns), rcond=None)
+    return a, c
+
+
+def cpu(record):
+    return record["user"] + record["sys"]
+
+
+def sps(bench):
+    args = bench.args
+    size = parse_size(args.sps_size)
+    rows = []
+    turn = 0
+    for threads in parse_list(args.sps_threads):
+        runs = {"strahl": [], "cycles": []}
+        for spp in parse_list(args.sps_spp):
+            order = ["strahl", "cycles"] if turn % 2 == 0 else ["cycles", "strahl"]
+            turn += 1
+            for renderer in order:
+                runs[renderer].append(bench.run(renderer, size, spp, threads))
+        for renderer, rs in runs.items():
+            u0, u = line_fit([r["spp"] for r in rs], [cpu(r) for r in rs])
+            pixels = size[0] * size[1]
+            last = rs[-1]
+            rows.append(
+                {
+                    "renderer": renderer,
+                    "threads": threads,
+                    "cpu_per_spp": u,
+                    "cpu_fixed": u0,
+                    "samples_per_cpu_second": pixels / u,
+                    "samples_per_wall_second": pixels * last["spp"] / last["sampling"],
+                    "setup": last["setup"],
+                    "wall": last["wall"],
+                    "sampling": last["sampling"],
+                    "spp": last["spp"],
+                    "load": (min(r["load_before"] for r in rs), max(r["load_after"] for r in rs)),
+                }
+            )
+    w, h = size
+    print(f"\nSamples per second, {args.scene}, {w} x {h}, depth {args.depth}")
+    print(
+        "| renderer | threads | samples/s (wall, sampling) | samples per CPU-second | CPU s per spp | "
+        "CPU s outside sampling (U0) | setup (wall) | whole run (wall, N spp) | load average |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(
+            f"| {r['renderer']} | {r['threads']} | {r['samples_per_wall_second'] / 1e3:.0f} k | "
+            f"{r['samples_per_cpu_second'] / 1e3:.0f} k | {r['cpu_per_spp']:.2f} | {r['cpu_fixed']:.2f} | "
+            f"{r['setup']:.2f} s | {r['wall']:.1f} s ({r['spp']}) | {r['load'][0]:.1f}–{r['load'][1]:.1f} |"
+        )
+    return rows
+
+
+def error(bench):
+    args = bench.args
+    size = parse_size(args.size)
+    threads = args.threads
+    refs = {}
+    for renderer in ["strahl", "cycles"]:
+        refs[renderer] = bench.run(renderer, size, args.reference_spp, threads, kind="reference")
+    plan = [("strahl", n) for n in parse_list(args.spp)] + [("cycles", n) for n in parse_list(args.spp)]
+    plan += [("cycles-adaptive", n) for n in parse_list(args.adaptive_spp)]
+    # Take turns: strahl's run at one count, then Cycles' at it, then the next count, Cycles first.
+    ordered = []
+    counts = sorted({n for _, n in plan})
+    for i, n in enumerate(counts):
+        here = [p for p in plan if p[1] == n]
+        ordered += here if i % 2 == 0 else here[::-1]
+    runs = {"strahl": [], "cycles": [], "cycles-adaptive": []}
+    for renderer, n in ordered:
+        runs[renderer].append(bench.run(renderer, size, n, threads))
+
+    images = {}
+    for name, ref in refs.items():
+        images[name] = bench.image(ref)
+    results = {}
+    for renderer, rs in runs.items():
+        base = "strahl" if renderer == "strahl" else "cycles"
+        ref_img, ref_var = images[base]
+        mean = float(ref_img.mean())
+        rs = sorted(rs, key=lambda r: r["spp"])
+        mses = [float(((bench.image(r)[0] - ref_img) ** 2).mean()) for r in rs]
+        results[renderer] = {"runs": rs, "mses": mses, "mean": mean, "ref_var": ref_var}
+    # The reference's own noise: strahl's variance pass; for Cycles the fit's constant.
+    a_s, c_s = mse_fit([r["spp"] for r in results["strahl"]["runs"]], results["strahl"]["mses"])
+    a_c, c_c = mse_fit([r["spp"] for r in results["cycles"]["runs"]], results["cycles"]["mses"])
+    var_s = float(results["strahl"]["ref_var"].mean())
+    results["strahl"]["subtract"] = var_s
+    results["cycles"]["subtract"] = c_c
+    results["cycles-adaptive"]["subtract"] = c_c
+    # What a run costs outside sampling: the intercept of CPU time against spp of the uniform runs.
+    for renderer in ["strahl", "cycles"]:
+        rs = results[renderer]["runs"]
+        results[renderer]["u0"], results[renderer]["u"] = line_fit([r["spp"] for r in rs], [cpu(r) for r in rs])
+    results["cycles-adaptive"]["u0"] = results["cycles"]["u0"]
+
+    w, h = size
+    print(f"\nError against each renderer's own reference, {args.scene}, {w} x {h}, depth {args.depth}, {threads} threads")
+    print(
+        f"strahl: reference {args.reference_spp} spp (2x2 pooled), variance pass mean {var_s:.3e}; "
+        f"fit MSE = {a_s:.3e}/N + {c_s:.3e} (check)"
+    )
+    print(f"Cycles: reference {args.reference_spp} spp, seed 1; fit MSE = {a_c:.3e}/N + {c_c:.3e} (c subtracted)")
+    for renderer in ["strahl", "cycles"]:
+        rs = results[renderer]["runs"]
+        print(
+            f"{renderer}: CPU time = {results[renderer]['u0']:.2f} s + {results[renderer]['u']:.3f} s x spp; "
+            f"reference: {cpu(refs[renderer]):.1f} s CPU, wall {refs[renderer]['wall']:.1f} s"
+        )
+    print("| renderer | spp | CPU s (whole run) | CPU s sampling | setup (wall) | RMSE / mean | RMSE / mean, raw | load |")
+    print("|---|---|---|---|---|---|---|---|")
+    fits = {}
+    for renderer, res in results.items():
+        xs, ys = [], []
+        for r, m in zip(res["runs"], res["mses"]):
+            noise = max(m - res["subtract"], 1e-30)
+            rel = math.sqrt(noise) / res["mean"]
+            raw = math.sqrt(m) / res["mean"]
+            sampling_cpu = cpu(r) - res["u0"]
+            xs.append(math.log(sampling_cpu))
+            ys.append(math.log(rel))
+            print(
+                f"| {renderer} | {r['spp']} | {cpu(r):.1f} | {sampling_cpu:.1f} | {r['setup']:.2f} s | "
+                f"{100 * rel:.2f} % | {100 * raw:.2f} % | {r['load_before']:.1f}–{r['load_after']:.1f} |"
+            )
+        a, b = line_fit(xs, ys)
+        t = math.exp((math.log(args.target) - a) / b)
+        inside = min(xs) <= math.log(t) <= max(xs)
+        fits[renderer] = {"slope": b, "time": t, "inside": inside, "u0": res["u0"]}
+    print(f"\nCPU time to {100 * args.target:.1f} % RMSE (relative to the image mean), {w} x {h}")
+    print("| renderer | slope of log RMSE vs log time | CPU s sampling | CPU s with U0 | U0 |")
+    print("|---|---|---|---|---|")
+    for renderer, f in fits.items():
+        mark = "" if f["inside"] else " (extrapolated)"
+        print(
+            f"| {renderer} | {f['slope']:.2f} | {f['time']:.1f}{mark} | {f['time'] + f['u0']:.1f} | {f['u0']:.2f} |"
+        )
+    s = fits["strahl"]["time"]
+    for renderer in ["cycles", "cycles-adaptive"]:
+        print(f"{renderer} / strahl, sampling CPU time to {100 * args.target:.1f} %: {fits[renderer]['time'] / s:.2f}")
+    return results, fits
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--scene", choices=["cornell", "dense"], default="cornell")
+    p.add_argument("--work", default=os.path.join(ROOT, "target", "bench-cycles"))
+    p.add_argument("--strahl", default=os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "strahl"))
+    p.add_argument("--size", default="240x135")
+    p.add_argument("--spp", default="4,16,64,256")
+    p.add_argument("--adaptive-spp", default="128,256,512")
+    p.add_argument("--reference-spp", type=int, default=1024)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--sps-size", default="1920x1080")
+    p.add_argument("--sps-spp", default="1,4")
+    p.add_argument("--sps-threads", default="1,2")
+    p.add_argument("--target", type=float, default=0.02)
+    p.add_argument("--depth", type=int, default=8)
+    p.add_argument("--only", choices=["sps", "error"])
+    args = p.parse_args()
+    if shutil.which("blender") is None:
+        print("bench-cycles: skipped, blender is not installed (apt-get install blender python3-numpy)")
+        return
+    if not os.access(args.strahl, os.X_OK):
+        sys.exit(f"{args.strahl}: no strahl binary (cargo build --release, or give --strahl)")
+    if args.reference_spp % 4 != 0:
+        sys.exit("--reference-spp must be a multiple of 4 (strahl's reference: a quarter of it at 2x2 the pixels)")
+    print(f"load average at start: {os.getloadavg()}", flush=True)
+    bench = Bench(args)
+    bench.export()
+    if args.only != "error":
+        sps(bench)
+    if args.only != "sps":
+        error(bench)
+    print(f"load average at end: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
