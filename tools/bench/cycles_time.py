@@ -148,17 +148,22 @@ class Bench:
         self.dir = os.path.abspath(os.path.join(args.work, args.scene))
         os.makedirs(self.dir, exist_ok=True)
         self.records_path = os.path.join(self.dir, "runs.json")
-        self.records = {}
-        if os.path.exists(self.records_path):
-            with open(self.records_path) as f:
-                self.records = json.load(f)
         self.gltf = os.path.join(self.dir, "cornell.gltf")
         self.blend = os.path.join(self.dir, "cornell.blend")
 
-    def save(self):
-        tmp = self.records_path + ".tmp"
+    def records(self):
+        """The runs recorded so far (read afresh: two benchmarks may share the directory)."""
+        if not os.path.exists(self.records_path):
+            return {}
+        with open(self.records_path) as f:
+            return json.load(f)
+
+    def save(self, key, record):
+        records = self.records()
+        records[key] = record
+        tmp = f"{self.records_path}.{os.getpid()}.tmp"
         with open(tmp, "w") as f:
-            json.dump(self.records, f, indent=1, sort_keys=True)
+            json.dump(records, f, indent=1, sort_keys=True)
         os.replace(tmp, self.records_path)
 
     def export(self):
@@ -176,8 +181,9 @@ class Bench:
         reference. Returns its record."""
         w, h = size
         key = f"{renderer}-{kind}-{w}x{h}-{spp}spp-{threads}t"
-        if key in self.records and os.path.exists(self.records[key]["exr"]):
-            return self.records[key]
+        done = self.records().get(key)
+        if done is not None and os.path.exists(done["exr"]):
+            return done
         exr = os.path.join(self.dir, key + ".exr")
         log = os.path.join(self.dir, key + ".log")
         if renderer == "strahl":
@@ -212,8 +218,7 @@ class Bench:
             f"setup {record['setup']:.2f} s, sampling {record['sampling']:.1f} s, load {record['load_before']:.1f}",
             flush=True,
         )
-        self.records[key] = record
-        self.save()
+        self.save(key, record)
         return record
 
     def phases(self, renderer, exr, log):
@@ -338,17 +343,22 @@ def error(bench):
     for renderer, rs in runs.items():
         base = "strahl" if renderer == "strahl" else "cycles"
         ref_img, ref_var = images[base]
-        mean = float(ref_img.mean())
         rs = sorted(rs, key=lambda r: r["spp"])
         mses = [float(((bench.image(r)[0] - ref_img) ** 2).mean()) for r in rs]
-        results[renderer] = {"runs": rs, "mses": mses, "mean": mean, "ref_var": ref_var}
-    # The reference's own noise: strahl's variance pass; for Cycles the fit's constant.
-    a_s, c_s = mse_fit([r["spp"] for r in results["strahl"]["runs"]], results["strahl"]["mses"])
-    a_c, c_c = mse_fit([r["spp"] for r in results["cycles"]["runs"]], results["cycles"]["mses"])
-    var_s = float(results["strahl"]["ref_var"].mean())
-    results["strahl"]["subtract"] = var_s
-    results["cycles"]["subtract"] = c_c
-    results["cycles-adaptive"]["subtract"] = c_c
+        results[renderer] = {"runs": rs, "mses": mses, "mean": float(ref_img.mean())}
+    # The reference's own noise: the fit's constant for both renderers (over the runs of 16 spp
+    # and more, where a/N holds best: the first samples of a low-discrepancy sequence converge
+    # faster), and for strahl also its reference's variance pass.
+    fits = {}
+    for renderer in ["strahl", "cycles"]:
+        pairs = [(r["spp"], m) for r, m in zip(results[renderer]["runs"], results[renderer]["mses"]) if r["spp"] >= 16]
+        fits[renderer] = mse_fit(*zip(*pairs))
+    var_s = float(images["strahl"][1].mean())
+    subtract = {
+        "strahl": {"variance pass": var_s, "fit": fits["strahl"][1]},
+        "cycles": {"fit": fits["cycles"][1]},
+        "cycles-adaptive": {"fit": fits["cycles"][1]},
+    }
     # What a run costs outside sampling: the intercept of CPU time against spp of the uniform runs.
     for renderer in ["strahl", "cycles"]:
         rs = results[renderer]["runs"]
@@ -357,49 +367,60 @@ def error(bench):
 
     w, h = size
     print(f"\nError against each renderer's own reference, {args.scene}, {w} x {h}, depth {args.depth}, {threads} threads")
-    print(
-        f"strahl: reference {args.reference_spp} spp (2x2 pooled), variance pass mean {var_s:.3e}; "
-        f"fit MSE = {a_s:.3e}/N + {c_s:.3e} (check)"
-    )
-    print(f"Cycles: reference {args.reference_spp} spp, seed 1; fit MSE = {a_c:.3e}/N + {c_c:.3e} (c subtracted)")
-    for renderer in ["strahl", "cycles"]:
-        rs = results[renderer]["runs"]
+    for renderer, (a, c) in fits.items():
+        m2 = results[renderer]["mean"] ** 2
+        print(
+            f"{renderer}: reference {args.reference_spp} spp; fit MSE = {a:.3e}/N + {c:.3e} over N >= 16 "
+            f"(reference's noise {100 * math.sqrt(max(c, 0) / m2):.2f} % of the mean)"
+            + (f"; variance pass {var_s:.3e} ({100 * math.sqrt(var_s / m2):.2f} %)" if renderer == "strahl" else "")
+        )
         print(
             f"{renderer}: CPU time = {results[renderer]['u0']:.2f} s + {results[renderer]['u']:.3f} s x spp; "
             f"reference: {cpu(refs[renderer]):.1f} s CPU, wall {refs[renderer]['wall']:.1f} s"
         )
-    print("| renderer | spp | CPU s (whole run) | CPU s sampling | setup (wall) | RMSE / mean | RMSE / mean, raw | load |")
-    print("|---|---|---|---|---|---|---|---|")
-    fits = {}
+    print(
+        "| renderer | spp | CPU s (whole run) | CPU s sampling | setup (wall) | RMSE / mean, raw | "
+        "less the reference's noise (fit) | (variance pass) | load |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    lines = {}
     for renderer, res in results.items():
-        xs, ys = [], []
+        points = {variant: [] for variant in subtract[renderer]}
         for r, m in zip(res["runs"], res["mses"]):
-            noise = max(m - res["subtract"], 1e-30)
-            rel = math.sqrt(noise) / res["mean"]
-            raw = math.sqrt(m) / res["mean"]
             sampling_cpu = cpu(r) - res["u0"]
-            xs.append(math.log(sampling_cpu))
-            ys.append(math.log(rel))
+            rel = {v: math.sqrt(max(m - c, 1e-30)) / res["mean"] for v, c in subtract[renderer].items()}
+            for v in rel:
+                points[v].append((math.log(sampling_cpu), math.log(rel[v])))
+            vp = f"{100 * rel['variance pass']:.2f} %" if "variance pass" in rel else "–"
             print(
                 f"| {renderer} | {r['spp']} | {cpu(r):.1f} | {sampling_cpu:.1f} | {r['setup']:.2f} s | "
-                f"{100 * rel:.2f} % | {100 * raw:.2f} % | {r['load_before']:.1f}–{r['load_after']:.1f} |"
+                f"{100 * math.sqrt(m) / res['mean']:.2f} % | {100 * rel['fit']:.2f} % | {vp} | "
+                f"{r['load_before']:.1f}–{r['load_after']:.1f} |"
             )
-        a, b = line_fit(xs, ys)
-        t = math.exp((math.log(args.target) - a) / b)
-        inside = min(xs) <= math.log(t) <= max(xs)
-        fits[renderer] = {"slope": b, "time": t, "inside": inside, "u0": res["u0"]}
-    print(f"\nCPU time to {100 * args.target:.1f} % RMSE (relative to the image mean), {w} x {h}")
-    print("| renderer | slope of log RMSE vs log time | CPU s sampling | CPU s with U0 | U0 |")
-    print("|---|---|---|---|---|")
-    for renderer, f in fits.items():
-        mark = "" if f["inside"] else " (extrapolated)"
-        print(
-            f"| {renderer} | {f['slope']:.2f} | {f['time']:.1f}{mark} | {f['time'] + f['u0']:.1f} | {f['u0']:.2f} |"
-        )
-    s = fits["strahl"]["time"]
-    for renderer in ["cycles", "cycles-adaptive"]:
-        print(f"{renderer} / strahl, sampling CPU time to {100 * args.target:.1f} %: {fits[renderer]['time'] / s:.2f}")
-    return results, fits
+        for v, pts in points.items():
+            xs, ys = zip(*pts)
+            a, b = line_fit(xs, ys)
+            lines[(renderer, v)] = (a, b, min(xs), max(xs), res["u0"])
+    targets = [float(t) for t in str(args.target).split(",")]
+    print(f"\nCPU seconds of sampling to a relative RMSE (U0 is added once per run), {w} x {h}")
+    print("| renderer | noise taken out by | slope | U0 | " + " | ".join(f"{100 * t:g} %" for t in targets) + " |")
+    print("|---|---|---|---|" + "---|" * len(targets))
+    times = {}
+    for (renderer, v), (a, b, lo, hi, u0) in lines.items():
+        cells = []
+        for t in targets:
+            x = (math.log(t) - a) / b
+            times[(renderer, v, t)] = math.exp(x)
+            cells.append(f"{math.exp(x):.1f}" + ("" if lo <= x <= hi else " (extrapolated)"))
+        print(f"| {renderer} | {v} | {b:.2f} | {u0:.2f} | " + " | ".join(cells) + " |")
+    for t in targets:
+        for v in ["fit", "variance pass"]:
+            s = times[("strahl", v, t)]
+            print(
+                f"at {100 * t:g} % (strahl's reference noise by {v}): Cycles / strahl {times[('cycles', 'fit', t)] / s:.2f}, "
+                f"Cycles adaptive / strahl {times[('cycles-adaptive', 'fit', t)] / s:.2f}"
+            )
+    return results, times
 
 
 def main():
@@ -415,7 +436,7 @@ def main():
     p.add_argument("--sps-size", default="1920x1080")
     p.add_argument("--sps-spp", default="1,4")
     p.add_argument("--sps-threads", default="1,2")
-    p.add_argument("--target", type=float, default=0.02)
+    p.add_argument("--target", default="0.1,0.05,0.02")
     p.add_argument("--depth", type=int, default=8)
     p.add_argument("--only", choices=["sps", "error"])
     args = p.parse_args()

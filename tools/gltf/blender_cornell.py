@@ -34,9 +34,10 @@ denoising, a box filter of one pixel (strahl's) and a black world.
 
 `dense`: Suzanne (Blender's monkey, 500 faces) with its Subdivision Surface modifier applied at
 level 5 (1,007,616 triangles), smooth-shaded, 0.8 m across where the block stands, and the floor
-a 200 x 200 grid of quads (80,000 triangles), 1,095,568 triangles in all; both diffuse (metallic 0, roughness 1, specular
-0) with a 1024 x 1024 UV grid (Blender's generated "UV Grid", sRGB) as base colour, which
-Cycles renders with the Diffuse BSDF coloured by the same image (linear interpolation).
+a 200 x 200 grid of quads (80,000 triangles), 1,095,568 triangles in all; both diffuse
+(metallic 0, roughness 1, specular 0) with a 1024 x 1024 UV grid (Blender's generated "UV
+Grid", sRGB) as base colour, which Cycles renders with the Diffuse BSDF coloured by the same
+image (linear interpolation).
 """
 
 import json
