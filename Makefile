@@ -261,7 +261,7 @@ bench: deps
 # strahl against Blender Cycles (CPU) on the same file: samples per second at 1920x1080 on 1 and
 # 2 threads, and the CPU time each takes to the same RMSE, on the Cornell-like room and on the
 # textured 1.1M-triangle room (tools/bench/cycles_time.py; the figures and the method are in
-# docs/performance.md). Takes about an hour on two cores; not part of `make test`. Skips,
+# docs/performance.md). About 40 CPU-minutes; not part of `make test`. Skips,
 # saying so, without Blender.
 bench-cycles:
 	@command -v blender >/dev/null || { echo "bench-cycles: skipped: blender is not installed (apt-get install blender python3-numpy)"; exit 0; }; \

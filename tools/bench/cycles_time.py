@@ -6,8 +6,8 @@ against Cycles: time to the same error"; `make bench-cycles` runs it on both sce
     python3 tools/bench/cycles_time.py --scene dense --work target/bench-cycles
     # options, with their defaults:
     #   --strahl target/release/strahl (cargo build --release)
-    #   --size 240x135 --spp 4,16,64,256 --adaptive-spp 128,256,512 --reference-spp 1024 --threads 2
-    #   --sps-size 1920x1080 --sps-spp 1,4 --sps-threads 1,2 --target 0.02 --depth 8
+    #   --size 240x135 --spp 4,16,64,256 --adaptive-spp 128,512 --reference-spp 1024 --threads 2
+    #   --sps-size 1920x1080 --sps-spp 1,4 --sps-threads 1,2 --target 0.1,0.05,0.02 --depth 8
     #   --only sps|error (one half of the runs)
 
 Needs `blender` (3.4, run headless with `-b`), python3 with numpy and OpenEXR, and a release
@@ -49,16 +49,17 @@ before and after each run.
   function of the pixel's index alone, so its reference is rendered at twice the width and
   height with a quarter of the samples and averaged 2 x 2, which with a box filter one pixel
   wide is the same estimate of each pixel from other sample sequences. The reference's own
-  noise is subtracted: RMSE = sqrt(MSE - var_ref), where for strahl var_ref is the mean of its
-  reference's variance pass (the four sub-pixels' variances of the mean over 16), and for
-  Cycles (which has no variance pass) the constant c of the fit MSE(N) = a/N + c over its
-  uniform runs; the same fit is printed for strahl as a check of its variance pass. The RMSE
-  is given relative to the reference's image mean.
-- Time to a fixed error: the line through the runs' (log CPU seconds of sampling, log RMSE)
-  gives the CPU time at which each renderer reaches `--target` (relative RMSE), sampling alone
-  (the run's CPU time less U0 of the error runs' own line) and with U0 added; a target outside
-  the runs' range is extrapolated along the line and marked so. The time at a given error
-  scales with the pixel count; the figures are for `--size`.
+  noise is subtracted: RMSE = sqrt(MSE - c), with c the constant of the fit MSE(N) = a/N + c
+  over the renderer's uniform runs of 16 spp and more (the first samples of a low-discrepancy
+  sequence converge faster than 1/N, which would make c negative); for strahl also with its
+  reference's variance pass in place of c (the four sub-pixels' variances of the mean over 16),
+  printed beside it: computed from the samples as if they were independent, it is the larger
+  of the two. The RMSE is given relative to the reference's image mean.
+- Time to a fixed error: the line through each renderer's points (log CPU seconds of
+  sampling, log RMSE) gives the CPU time at which it reaches each relative RMSE of `--target`,
+  sampling alone (u·N of the error runs' own line for the uniform runs, the run's CPU time
+  less U0 for the adaptive ones; U0 is printed beside it); a target outside the runs' range is extrapolated along the line and marked so.
+  The time to a given error scales with the pixel count; the figures are for `--size`.
 """
 
 import argparse
@@ -294,6 +295,7 @@ def sps(bench):
                     "cpu_fixed": u0,
                     "samples_per_cpu_second": pixels / u,
                     "samples_per_wall_second": pixels * last["spp"] / last["sampling"],
+                    "samples_per_cpu_second_run": pixels * last["spp"] / cpu(last),
                     "setup": last["setup"],
                     "wall": last["wall"],
                     "sampling": last["sampling"],
@@ -304,13 +306,15 @@ def sps(bench):
     w, h = size
     print(f"\nSamples per second, {args.scene}, {w} x {h}, depth {args.depth}")
     print(
-        "| renderer | threads | samples/s (wall, sampling) | samples per CPU-second | CPU s per spp | "
-        "CPU s outside sampling (U0) | setup (wall) | whole run (wall, N spp) | load average |"
+        "| renderer | threads | samples/s (wall, sampling) | samples per CPU-second (whole run, N spp) | "
+        "the same from the line's slope | CPU s per spp | CPU s outside sampling (U0) | setup (wall) | "
+        "whole run (wall, N spp) | load average |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['renderer']} | {r['threads']} | {r['samples_per_wall_second'] / 1e3:.0f} k | "
+            f"{r['samples_per_cpu_second_run'] / 1e3:.0f} k | "
             f"{r['samples_per_cpu_second'] / 1e3:.0f} k | {r['cpu_per_spp']:.2f} | {r['cpu_fixed']:.2f} | "
             f"{r['setup']:.2f} s | {r['wall']:.1f} s ({r['spp']}) | {r['load'][0]:.1f}–{r['load'][1]:.1f} |"
         )
@@ -387,7 +391,9 @@ def error(bench):
     for renderer, res in results.items():
         points = {variant: [] for variant in subtract[renderer]}
         for r, m in zip(res["runs"], res["mses"]):
-            sampling_cpu = cpu(r) - res["u0"]
+            # Uniform runs: the line's u·N (a small run's CPU time less U0 is mostly noise);
+            # adaptive runs, whose samples per pixel vary: the run's CPU time less U0.
+            sampling_cpu = res["u"] * r["spp"] if "u" in res else cpu(r) - res["u0"]
             rel = {v: math.sqrt(max(m - c, 1e-30)) / res["mean"] for v, c in subtract[renderer].items()}
             for v in rel:
                 points[v].append((math.log(sampling_cpu), math.log(rel[v])))
@@ -430,7 +436,7 @@ def main():
     p.add_argument("--strahl", default=os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "strahl"))
     p.add_argument("--size", default="240x135")
     p.add_argument("--spp", default="4,16,64,256")
-    p.add_argument("--adaptive-spp", default="128,256,512")
+    p.add_argument("--adaptive-spp", default="128,512")
     p.add_argument("--reference-spp", type=int, default=1024)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--sps-size", default="1920x1080")
