@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles clean
 
 all: build
 
@@ -258,6 +258,16 @@ fuzz:
 
 bench: deps
 	$(CARGO) bench --locked
+
+# strahl against Blender Cycles (CPU) on the same file: samples per second at 1920x1080 on 1 and
+# 2 threads, and the CPU time each takes to the same RMSE, on the Cornell-like room and on the
+# textured 1.1M-triangle room (tools/bench/cycles_time.py; the figures and the method are in
+# docs/performance.md). About 40 CPU-minutes; not part of `make test`. Skips,
+# saying so, without Blender.
+bench-cycles:
+	@command -v blender >/dev/null || { echo "bench-cycles: skipped: blender is not installed (apt-get install blender python3-numpy)"; exit 0; }; \
+	$(MAKE) --no-print-directory build && \
+	for s in cornell dense; do python3 tools/bench/cycles_time.py --scene $$s --strahl $(STRAHL) || exit 1; done
 
 clean:
 	$(CARGO) clean

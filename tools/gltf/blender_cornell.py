@@ -2,10 +2,15 @@
 it with Cycles, for the path tracer's comparison with Cycles (tests/cycles.rs,
 `make test-cycles`).
 
-    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque] [passes] [centre] [rough]
+    blender -b --factory-startup --python tools/gltf/blender_cornell.py -- OUT_DIR SIZE SPP DEPTH [opaque] [passes] [centre] [rough] [blend] [dense]
 
-writes OUT_DIR/cornell.gltf (+ .bin) and OUT_DIR/cycles.exr (SIZE x SIZE pixels, SPP samples, scene-linear
-RGBA floats; SPP 0 exports without rendering). `opaque` makes the glass sphere white diffuse, lifts
+writes OUT_DIR/cornell.gltf (+ .bin) and OUT_DIR/cycles.exr (SIZE x SIZE pixels, or W x H for a
+SIZE of the form WxH, SPP samples, scene-linear RGBA floats; SPP 0 exports without rendering).
+`blend` also saves OUT_DIR/cornell.blend, the scene as Cycles renders it (its settings below),
+before rendering, or instead of it with SPP 0: tools/bench/cycles_time.py renders it. `dense`
+puts a textured Suzanne subdivided to about 1M triangles in place of the block and
+textures the floor, both with a UV grid Blender generates, saved as OUT_DIR/uvgrid.png (see
+the end of this docstring). `opaque` makes the glass sphere white diffuse, lifts
 both spheres 0.2 off the floor, closes the room with a white front wall and puts the camera
 inside it (at (0, -0.9, 1), a 16 mm lens): then every pixel sees a surface of a closed, lit
 room, with no contact point where the light goes to 0 and no opening for paths to escape. In Blender's Z-up coordinates (the exporter turns (x, y, z) into glTF's (x, z, -y)):
@@ -26,6 +31,13 @@ material is; Cycles' Principled BSDF would add its Disney diffuse retro-reflecti
 Cycles is set to what strahl's path tracer computes: DEPTH scatterings (Cycles' max bounces
 DEPTH - 1, every kind), no clamp, no glossy filter, caustics on, no adaptive sampling, no
 denoising, a box filter of one pixel (strahl's) and a black world.
+
+`dense`: Suzanne (Blender's monkey, 500 faces) with its Subdivision Surface modifier applied at
+level 5 (1,007,616 triangles), smooth-shaded, 0.8 m across where the block stands, and the floor
+a 200 x 200 grid of quads (80,000 triangles), 1,095,568 triangles in all; both diffuse
+(metallic 0, roughness 1, specular 0) with a 1024 x 1024 UV grid (Blender's generated "UV
+Grid", sRGB) as base colour, which Cycles renders with the Diffuse BSDF coloured by the same
+image (linear interpolation).
 """
 
 import json
@@ -40,7 +52,8 @@ from principled import principled  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1 :]
 out_dir, size, spp, depth = args[:4]
-size, spp, depth = int(size), int(spp), int(depth)
+width, height = (int(v) for v in size.split("x")) if "x" in size else (int(size), int(size))
+spp, depth = int(spp), int(depth)
 flags = set(args[4:])
 opaque = "opaque" in flags
 # `passes`: a multilayer EXR with Cycles' Depth and CryptoObject passes (6 levels), for the
@@ -52,6 +65,8 @@ centre = "centre" in flags
 # with Multiscatter GGX, which keeps the energy single-scattering GGX loses, as strahl's glTF
 # BRDF does (Kulla-Conty).
 rough = "rough" in flags
+blend = "blend" in flags
+dense = "dense" in flags
 os.makedirs(out_dir, exist_ok=True)
 
 for obj in list(bpy.data.objects):
@@ -91,8 +106,31 @@ def mesh_object(name, verts, faces, mat, smooth=False):
 white = principled("white", WHITE, specular=0.0)
 red = principled("red", RED, specular=0.0)
 green = principled("green", GREEN, specular=0.0)
+
+
+def uv_grid_material(name):
+    """A diffuse material coloured by Blender's generated UV grid, saved as OUT_DIR/uvgrid.png."""
+    image = bpy.data.images.new("uvgrid", 1024, 1024)
+    image.generated_type = "UV_GRID"
+    image.filepath_raw = os.path.join(out_dir, "uvgrid.png")
+    image.file_format = "PNG"
+    image.save()
+    mat = principled(name, (1.0, 1.0, 1.0), specular=0.0)
+    texture = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    texture.interpolation = "Linear"
+    mat.node_tree.links.new(texture.outputs["Color"], mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    return mat
+
+
+textured = uv_grid_material("uvgrid") if dense else None
 # Faces wound so that their normals face into the room.
-mesh_object("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], white)
+if dense:
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=200, y_subdivisions=200, size=2.0, calc_uvs=True)
+    bpy.context.active_object.name = "floor"
+    bpy.context.active_object.data.materials.append(textured)
+else:
+    mesh_object("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], white)
 mesh_object("back", [(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], [(0, 1, 2, 3)], white)
 mesh_object("left", [(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], [(0, 1, 2, 3)], red)
 mesh_object("right", [(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], [(0, 1, 2, 3)], green)
@@ -109,11 +147,20 @@ mesh_object(
 )
 mesh_object("light", [(-h, -h, 2), (-h, h, 2), (h, h, 2), (h, -h, 2)], [(0, 1, 2, 3)], emitter("light", 15.0))
 
-bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-0.45, 0.35, 0.6), rotation=(0, 0, math.radians(20)))
-block = bpy.context.active_object
+if dense:
+    bpy.ops.mesh.primitive_monkey_add(size=0.6, location=(-0.4, 0.3, 0.45), rotation=(0, 0, math.radians(-15)))
+    block = bpy.context.active_object
+    subdivision = block.modifiers.new("subdivision", "SUBSURF")
+    subdivision.levels = subdivision.render_levels = 5
+    bpy.ops.object.modifier_apply(modifier=subdivision.name)
+    bpy.ops.object.shade_smooth()
+    block.data.materials.append(textured)
+else:
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-0.45, 0.35, 0.6), rotation=(0, 0, math.radians(20)))
+    block = bpy.context.active_object
+    block.scale = (0.55, 0.55, 1.2)
+    block.data.materials.append(principled("block", WHITE, specular=0.0))
 block.name = "block"
-block.scale = (0.55, 0.55, 1.2)
-block.data.materials.append(principled("block", WHITE, specular=0.0))
 
 # `opaque` lifts both spheres off the floor, so that no point of the floor is a contact point,
 # where the light goes to 0.
@@ -144,8 +191,8 @@ cam.location = (0.0, -0.9, 1.0) if opaque else (0.0, -3.9, 1.0)
 cam.rotation_euler = (math.radians(90.0), 0.0, 0.0)
 scene.collection.objects.link(cam)
 scene.camera = cam
-scene.render.resolution_x = size
-scene.render.resolution_y = size
+scene.render.resolution_x = width
+scene.render.resolution_y = height
 scene.render.resolution_percentage = 100
 
 gltf_path = os.path.join(out_dir, "cornell.gltf")
@@ -170,16 +217,20 @@ for material in doc.get("materials", []):
 with open(gltf_path, "w") as f:
     json.dump(doc, f)
 
-if spp == 0:
+if spp == 0 and not blend:
     sys.exit(0)
 
 # Cycles renders what the glTF file says: Lambert where the glTF material is diffuse.
 for mat in (white, red, green, block.data.materials[0]) + ((glass.data.materials[0],) if opaque else ()):
     nodes = mat.node_tree.nodes
-    base = nodes["Principled BSDF"].inputs["Base Color"].default_value[:]
+    base_input = nodes["Principled BSDF"].inputs["Base Color"]
+    base = base_input.default_value[:]
+    texture = base_input.links[0].from_socket if base_input.is_linked else None
     nodes.remove(nodes["Principled BSDF"])
     diffuse = nodes.new("ShaderNodeBsdfDiffuse")
     diffuse.inputs["Color"].default_value = base
+    if texture is not None:
+        mat.node_tree.links.new(texture, diffuse.inputs["Color"])
     diffuse.inputs["Roughness"].default_value = 0.0
     mat.node_tree.links.new(diffuse.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
 
@@ -227,5 +278,9 @@ if passes:
 scene.render.image_settings.color_depth = "32"
 scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = os.path.join(out_dir, "cycles.exr")
+if blend:
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out_dir, "cornell.blend"))
+    if spp == 0:
+        sys.exit(0)
 bpy.ops.render.render(write_still=True)
 print("WROTE", scene.render.filepath)
