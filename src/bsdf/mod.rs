@@ -447,7 +447,13 @@ impl Bsdf {
     /// lobes may scatter (module docs).
     #[inline]
     fn local_pair(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3, bool)> {
-        let (lo, li) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        self.local_pair_from(self.frame.to_local(wo), wo, wi)
+    }
+
+    /// [`Bsdf::local_pair`] where `lo` is `wo` in local coordinates already.
+    #[inline]
+    fn local_pair_from(&self, lo: Vec3, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3, bool)> {
+        let li = self.frame.to_local(wi);
         if lo.z <= 0.0 || li.z == 0.0 {
             return None;
         }
@@ -458,8 +464,16 @@ impl Bsdf {
 
     /// `f(wo, wi)` per pass family (world-space unit vectors), specular lobes excluded.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> BsdfEval {
+        match self.local_pair(wo, wi) {
+            Some((wo, wi, transmitted)) => self.eval_local(wo, wi, transmitted),
+            None => BsdfEval::default(),
+        }
+    }
+
+    /// [`Bsdf::eval`] of a pair already in local coordinates ([`Bsdf::local_pair`]).
+    #[inline]
+    fn eval_local(&self, wo: Vec3, wi: Vec3, transmitted: bool) -> BsdfEval {
         let mut out = BsdfEval::default();
-        let Some((wo, wi, transmitted)) = self.local_pair(wo, wi) else { return out };
         let scales = self.scales(wo.z, wi.z.abs());
         for (k, lobe) in self.lobes().iter().enumerate() {
             let f = lobe.eval(wo, wi);
@@ -473,8 +487,14 @@ impl Bsdf {
     /// The density of [`Bsdf::sample`] at `wi` (per steradian), specular lobes excluded.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some((wo, wi, _)) = self.local_pair(wo, wi) else { return 0.0 };
-        let p = self.selection(wo.z);
-        self.lobes().iter().zip(p).filter(|(_, p)| *p > 0.0).map(|(lobe, p)| p * lobe.pdf(wo, wi)).sum()
+        self.pdf_local(wo, wi, &self.selection(wo.z))
+    }
+
+    /// [`Bsdf::pdf`] of a pair already in local coordinates, with the lobes' selection
+    /// probabilities `p` at `wo` ([`Bsdf::selection`]).
+    #[inline]
+    fn pdf_local(&self, wo: Vec3, wi: Vec3, p: &[f32; MAX_LOBES]) -> f32 {
+        self.lobes().iter().zip(p).filter(|(_, p)| **p > 0.0).map(|(lobe, p)| p * lobe.pdf(wo, wi)).sum()
     }
 
     /// A direction for `wo`: `u_lobe` chooses the lobe (and is reused, rescaled, for the
@@ -509,8 +529,11 @@ impl Bsdf {
             let flags = LobeFlags::SPECULAR | side;
             return Some(BsdfSample { wi, f: s.f * scale, pdf: s.pdf * p[k], flags, class, eta: s.eta });
         }
-        let f = self.eval(wo, wi).sum();
-        let pdf = self.pdf(wo, wi);
+        // `f` and the density at the world-space `wi` (what `eval` and `pdf` give there),
+        // from the local `wo` and the selection computed above.
+        let (lo, li, transmitted) = self.local_pair_from(lo, wo, wi)?;
+        let f = self.eval_local(lo, li, transmitted).sum();
+        let pdf = self.pdf_local(lo, li, &p);
         let kind = LobeFlags(lobe.flags().0 & (LobeFlags::DIFFUSE.0 | LobeFlags::GLOSSY.0));
         (pdf > 0.0).then_some(BsdfSample { wi, f, pdf, flags: kind | side, class, eta: s.eta })
     }
