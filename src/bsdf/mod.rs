@@ -49,6 +49,8 @@ pub use ggx::SMOOTH_ALPHA;
 pub use gltf::{PbrParams, appendix_b, gltf};
 pub use lecture::{LectureParams, lecture};
 
+use arrayvec::ArrayVec;
+
 use crate::math::{Vec2, Vec3};
 
 /// What a lobe does: reflect and/or transmit, and how (diffuse, glossy or perfectly specular).
@@ -331,43 +333,33 @@ const UNDER_COAT: u8 = 2;
 const NO_LOBE: u8 = u8::MAX;
 
 /// A BSDF at one surface point (module docs).
-#[derive(Clone, Copy, Debug)]
+///
+/// The lobes are kept in an [`ArrayVec`]: a BSDF is built at every path vertex and most hold
+/// one lobe, so only the lobes pushed are written (an array of [`MAX_LOBES`] slots of 112 bytes
+/// each, all initialised, was written out whole at every vertex).
+#[derive(Clone, Debug)]
 pub struct Bsdf {
     frame: Frame,
     ng: Vec3,
     front_face: bool,
-    len: u8,
     /// The index of the sheen and of the clearcoat lobe, when there is one.
     sheen: u8,
     coat: u8,
     under: [u8; MAX_LOBES],
-    lobes: [Lobe; MAX_LOBES],
+    lobes: ArrayVec<Lobe, MAX_LOBES>,
 }
 
 impl Bsdf {
     /// An empty BSDF (black) in `frame` with geometric normal `ng` (facing `wo`'s side).
     pub(crate) fn new(frame: Frame, ng: Vec3, front_face: bool) -> Self {
-        let black = Lobe::Lambert(lambert::Lambert { color: Vec3::ZERO });
-        Bsdf {
-            frame,
-            ng,
-            front_face,
-            len: 0,
-            sheen: NO_LOBE,
-            coat: NO_LOBE,
-            under: [0; MAX_LOBES],
-            lobes: [black; MAX_LOBES],
-        }
+        Bsdf { frame, ng, front_face, sheen: NO_LOBE, coat: NO_LOBE, under: [0; MAX_LOBES], lobes: ArrayVec::new() }
     }
 
     /// Adds a lobe (ignored past [`MAX_LOBES`]; the constructors never exceed it).
     pub(crate) fn push(&mut self, lobe: Lobe) -> usize {
-        let k = self.len as usize;
+        let k = self.lobes.len();
         debug_assert!(k < MAX_LOBES, "too many lobes");
-        if k < MAX_LOBES {
-            self.lobes[k] = lobe;
-            self.len += 1;
-        }
+        let _ = self.lobes.try_push(lobe);
         k
     }
 
@@ -387,7 +379,7 @@ impl Bsdf {
 
     #[inline]
     fn lobes(&self) -> &[Lobe] {
-        &self.lobes[..self.len as usize]
+        &self.lobes
     }
 
     /// The shading frame.
@@ -507,7 +499,7 @@ impl Bsdf {
         let p = self.selection(lo.z);
         let mut k = 0;
         let mut before = 0.0;
-        while k + 1 < self.len as usize && (p[k] == 0.0 || u_lobe >= before + p[k]) {
+        while k + 1 < self.lobes.len() && (p[k] == 0.0 || u_lobe >= before + p[k]) {
             before += p[k];
             k += 1;
         }
