@@ -45,7 +45,7 @@ pub struct Volume {
 }
 
 /// What a path vertex needs of its material.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Shading {
     pub bsdf: Bsdf,
     /// Radiance emitted back along the ray that found the point.

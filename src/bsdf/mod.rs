@@ -49,6 +49,8 @@ pub use ggx::SMOOTH_ALPHA;
 pub use gltf::{PbrParams, appendix_b, gltf};
 pub use lecture::{LectureParams, lecture};
 
+use arrayvec::ArrayVec;
+
 use crate::math::{Vec2, Vec3};
 
 /// What a lobe does: reflect and/or transmit, and how (diffuse, glossy or perfectly specular).
@@ -331,43 +333,33 @@ const UNDER_COAT: u8 = 2;
 const NO_LOBE: u8 = u8::MAX;
 
 /// A BSDF at one surface point (module docs).
-#[derive(Clone, Copy, Debug)]
+///
+/// The lobes are kept in an [`ArrayVec`]: a BSDF is built at every path vertex and most hold
+/// one lobe, so only the lobes pushed are written (an array of [`MAX_LOBES`] slots of 112 bytes
+/// each, all initialised, was written out whole at every vertex).
+#[derive(Clone, Debug)]
 pub struct Bsdf {
     frame: Frame,
     ng: Vec3,
     front_face: bool,
-    len: u8,
     /// The index of the sheen and of the clearcoat lobe, when there is one.
     sheen: u8,
     coat: u8,
     under: [u8; MAX_LOBES],
-    lobes: [Lobe; MAX_LOBES],
+    lobes: ArrayVec<Lobe, MAX_LOBES>,
 }
 
 impl Bsdf {
     /// An empty BSDF (black) in `frame` with geometric normal `ng` (facing `wo`'s side).
     pub(crate) fn new(frame: Frame, ng: Vec3, front_face: bool) -> Self {
-        let black = Lobe::Lambert(lambert::Lambert { color: Vec3::ZERO });
-        Bsdf {
-            frame,
-            ng,
-            front_face,
-            len: 0,
-            sheen: NO_LOBE,
-            coat: NO_LOBE,
-            under: [0; MAX_LOBES],
-            lobes: [black; MAX_LOBES],
-        }
+        Bsdf { frame, ng, front_face, sheen: NO_LOBE, coat: NO_LOBE, under: [0; MAX_LOBES], lobes: ArrayVec::new() }
     }
 
     /// Adds a lobe (ignored past [`MAX_LOBES`]; the constructors never exceed it).
     pub(crate) fn push(&mut self, lobe: Lobe) -> usize {
-        let k = self.len as usize;
+        let k = self.lobes.len();
         debug_assert!(k < MAX_LOBES, "too many lobes");
-        if k < MAX_LOBES {
-            self.lobes[k] = lobe;
-            self.len += 1;
-        }
+        let _ = self.lobes.try_push(lobe);
         k
     }
 
@@ -387,7 +379,7 @@ impl Bsdf {
 
     #[inline]
     fn lobes(&self) -> &[Lobe] {
-        &self.lobes[..self.len as usize]
+        &self.lobes
     }
 
     /// The shading frame.
@@ -447,7 +439,13 @@ impl Bsdf {
     /// lobes may scatter (module docs).
     #[inline]
     fn local_pair(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3, bool)> {
-        let (lo, li) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        self.local_pair_from(self.frame.to_local(wo), wo, wi)
+    }
+
+    /// [`Bsdf::local_pair`] where `lo` is `wo` in local coordinates already.
+    #[inline]
+    fn local_pair_from(&self, lo: Vec3, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3, bool)> {
+        let li = self.frame.to_local(wi);
         if lo.z <= 0.0 || li.z == 0.0 {
             return None;
         }
@@ -458,8 +456,16 @@ impl Bsdf {
 
     /// `f(wo, wi)` per pass family (world-space unit vectors), specular lobes excluded.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> BsdfEval {
+        match self.local_pair(wo, wi) {
+            Some((wo, wi, transmitted)) => self.eval_local(wo, wi, transmitted),
+            None => BsdfEval::default(),
+        }
+    }
+
+    /// [`Bsdf::eval`] of a pair already in local coordinates ([`Bsdf::local_pair`]).
+    #[inline]
+    fn eval_local(&self, wo: Vec3, wi: Vec3, transmitted: bool) -> BsdfEval {
         let mut out = BsdfEval::default();
-        let Some((wo, wi, transmitted)) = self.local_pair(wo, wi) else { return out };
         let scales = self.scales(wo.z, wi.z.abs());
         for (k, lobe) in self.lobes().iter().enumerate() {
             let f = lobe.eval(wo, wi);
@@ -473,8 +479,14 @@ impl Bsdf {
     /// The density of [`Bsdf::sample`] at `wi` (per steradian), specular lobes excluded.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some((wo, wi, _)) = self.local_pair(wo, wi) else { return 0.0 };
-        let p = self.selection(wo.z);
-        self.lobes().iter().zip(p).filter(|(_, p)| *p > 0.0).map(|(lobe, p)| p * lobe.pdf(wo, wi)).sum()
+        self.pdf_local(wo, wi, &self.selection(wo.z))
+    }
+
+    /// [`Bsdf::pdf`] of a pair already in local coordinates, with the lobes' selection
+    /// probabilities `p` at `wo` ([`Bsdf::selection`]).
+    #[inline]
+    fn pdf_local(&self, wo: Vec3, wi: Vec3, p: &[f32; MAX_LOBES]) -> f32 {
+        self.lobes().iter().zip(p).filter(|(_, p)| **p > 0.0).map(|(lobe, p)| p * lobe.pdf(wo, wi)).sum()
     }
 
     /// A direction for `wo`: `u_lobe` chooses the lobe (and is reused, rescaled, for the
@@ -487,7 +499,7 @@ impl Bsdf {
         let p = self.selection(lo.z);
         let mut k = 0;
         let mut before = 0.0;
-        while k + 1 < self.len as usize && (p[k] == 0.0 || u_lobe >= before + p[k]) {
+        while k + 1 < self.lobes.len() && (p[k] == 0.0 || u_lobe >= before + p[k]) {
             before += p[k];
             k += 1;
         }
@@ -509,8 +521,11 @@ impl Bsdf {
             let flags = LobeFlags::SPECULAR | side;
             return Some(BsdfSample { wi, f: s.f * scale, pdf: s.pdf * p[k], flags, class, eta: s.eta });
         }
-        let f = self.eval(wo, wi).sum();
-        let pdf = self.pdf(wo, wi);
+        // `f` and the density at the world-space `wi` (what `eval` and `pdf` give there),
+        // from the local `wo` and the selection computed above.
+        let (lo, li, transmitted) = self.local_pair_from(lo, wo, wi)?;
+        let f = self.eval_local(lo, li, transmitted).sum();
+        let pdf = self.pdf_local(lo, li, &p);
         let kind = LobeFlags(lobe.flags().0 & (LobeFlags::DIFFUSE.0 | LobeFlags::GLOSSY.0));
         (pdf > 0.0).then_some(BsdfSample { wi, f, pdf, flags: kind | side, class, eta: s.eta })
     }
