@@ -56,15 +56,7 @@ fn repo(path: &str) -> PathBuf {
 }
 
 fn blender_missing() -> bool {
-    if Command::new("blender").arg("--version").output().is_ok() {
-        return false;
-    }
-    assert!(
-        std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
-        "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
-    );
-    common::skip("blender is not installed (apt-get install blender python3-numpy); the Blender add-on is not tested");
-    true
+    !common::blender_installed("the Blender add-on is not tested")
 }
 
 /// `blender -b --factory-startup`, in `dir`, with the add-on installed (a copy of blender/strahl_engine

@@ -36,12 +36,7 @@ const STRAHL_LAYER: &str = "ViewLayer.Combined.";
 /// `size` × `size` pixels; `flags` are the script's (`opaque`: the closed variant; `passes`: a
 /// multilayer EXR with Depth and Cryptomatte); `None` (with a loud message) when Blender is missing.
 fn blender_cornell(dir: &Path, size: usize, spp: u32, flags: &[&str]) -> Option<(PathBuf, PathBuf)> {
-    if Command::new("blender").arg("--version").output().is_err() {
-        assert!(
-            std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
-            "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
-        );
-        common::skip("blender is not installed (apt-get install blender python3-numpy; make test-cycles installs it)");
+    if !common::blender_installed("strahl is not compared with Cycles") {
         return None;
     }
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_cornell.py");

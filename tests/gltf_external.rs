@@ -15,8 +15,7 @@ use strahl::scene::{from_gltf_file, from_toml_str};
 /// Exports `tools/gltf/blender_export.py`'s scene into `dir`; `None` (with a loud message)
 /// when Blender is absent.
 fn blender_export(dir: &Path) -> Option<PathBuf> {
-    if Command::new("blender").arg("--version").output().is_err() {
-        common::skip("blender is not installed (apt-get install blender)");
+    if !common::blender_installed("Blender's exported files are not read") {
         return None;
     }
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_export.py");

@@ -105,12 +105,7 @@ fn render(dir: &TempDir, gltf: &Path, spp: u32, extra: &[&str]) -> PathBuf {
 /// Cycles' render of the model `name` from `view` (tools/blender/render_gltf.py); `None`, with
 /// a loud line, when Blender is missing.
 fn cycles(dir: &TempDir, name: &str, view: View, spp: u32, flags: &[&str]) -> Option<PathBuf> {
-    if Command::new("blender").arg("--version").output().is_err() {
-        assert!(
-            std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
-            "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
-        );
-        common::skip("blender is not installed (apt-get install blender python3-numpy; make test-cycles installs it)");
+    if !common::blender_installed("the Khronos models are not compared with Cycles") {
         return None;
     }
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/blender/render_gltf.py");

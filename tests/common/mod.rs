@@ -188,6 +188,22 @@ pub fn skip(why: &str) {
     }
 }
 
+/// Whether Blender is installed; if not, says so in a skip line ending in `then` (what goes
+/// untested), or fails when `STRAHL_REQUIRE_BLENDER=1` (`make test-cycles` sets it).
+pub fn blender_installed(then: &str) -> bool {
+    if Command::new("blender").arg("--version").output().is_ok() {
+        return true;
+    }
+    assert!(
+        std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
+        "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
+    );
+    skip(&format!(
+        "blender is not installed (apt-get install blender python3-numpy; make test-cycles installs it): {then}"
+    ));
+    false
+}
+
 /// Runs the asset script `tools/gltf/SCRIPT` (pygltflib, not strahl's code) into
 /// `dir/assets`; returns that folder, or `None` (with a skip line naming `test`) when python3
 /// or its pygltflib is missing. A script that fails otherwise fails the test.

@@ -11,9 +11,7 @@ wide, Cycles' narrowest). EYE, TARGET are in glTF's coordinates
 (y up); the camera's up is +y and its vertical field of view YFOV_DEG, on a square image.
 Blender's own glTF importer reads the file: what is compared is two readings of the same asset.
 
-Cycles is set to what strahl computes, as tools/gltf/blender_cornell.py does: DEPTH - 1 bounces of
-every kind, no clamp, no glossy filter, caustics on, no adaptive sampling, no denoising, a box
-filter of one pixel.
+Cycles is set to what strahl computes (tools/blender/cycles_settings.py).
 """
 
 import math, os, sys
@@ -21,6 +19,9 @@ import math, os, sys
 import bpy
 import numpy
 from mathutils import Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cycles_settings import like_strahl  # noqa: E402
 
 # Blender 3.4's glTF importer still says `numpy.bool`, which NumPy 1.24 removed (Debian
 # bookworm's python3-numpy is 1.24): give it back the alias it meant.
@@ -59,34 +60,10 @@ world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 1.0, 1
 world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
 scene.world = world
 
-scene.render.engine = "CYCLES"
-cycles = scene.cycles
-cycles.device = "CPU"
-cycles.samples = spp
-cycles.use_adaptive_sampling = False
-cycles.use_denoising = False
-cycles.seed = 0
-cycles.max_bounces = depth - 1
-cycles.diffuse_bounces = depth - 1
-cycles.glossy_bounces = depth - 1
-cycles.transmission_bounces = depth - 1
-cycles.transparent_max_bounces = depth - 1
-cycles.volume_bounces = 0
-cycles.sample_clamp_direct = 0.0
-cycles.sample_clamp_indirect = 0.0
-cycles.blur_glossy = 0.0
-cycles.caustics_reflective = True
-cycles.caustics_refractive = True
-cycles.pixel_filter_type = "BOX"
-cycles.filter_width = 1.0
-scene.view_settings.view_transform = "Standard"
-scene.view_settings.look = "None"
-scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER" if with_depth else "OPEN_EXR"
+cycles = like_strahl(scene, spp, depth, multilayer=with_depth)
 if with_depth:
     cycles.filter_width = 0.01
     scene.view_layers[0].use_pass_z = True
-scene.render.image_settings.color_depth = "32"
-scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = os.path.join(out_dir, "cycles.exr")
 bpy.ops.render.render(write_still=True)
 print("WROTE", scene.render.filepath)

@@ -49,6 +49,7 @@ import bpy
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "blender"))
 from principled import principled  # noqa: E402
+from cycles_settings import like_strahl  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1 :]
 out_dir, size, spp, depth = args[:4]
@@ -242,32 +243,7 @@ world.use_nodes = True
 world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
 scene.world = world
 
-scene.render.engine = "CYCLES"
-cycles = scene.cycles
-cycles.device = "CPU"
-cycles.samples = spp
-cycles.use_adaptive_sampling = False
-cycles.use_denoising = False
-cycles.seed = 0
-cycles.max_bounces = depth - 1
-cycles.diffuse_bounces = depth - 1
-cycles.glossy_bounces = depth - 1
-cycles.transmission_bounces = depth - 1
-cycles.transparent_max_bounces = depth - 1
-cycles.volume_bounces = 0
-cycles.sample_clamp_direct = 0.0
-cycles.sample_clamp_indirect = 0.0
-cycles.blur_glossy = 0.0
-cycles.caustics_reflective = True
-cycles.caustics_refractive = True
-cycles.pixel_filter_type = "BOX"
-cycles.filter_width = 1.0
-scene.render.threads_mode = "AUTO"
-scene.view_settings.view_transform = "Standard"
-scene.view_settings.look = "None"
-scene.view_settings.exposure = 0.0
-scene.view_settings.gamma = 1.0
-scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER" if passes else "OPEN_EXR"
+cycles = like_strahl(scene, spp, depth, multilayer=passes)
 if centre:
     cycles.filter_width = 0.01
 if passes:
@@ -275,8 +251,6 @@ if passes:
     layer.use_pass_z = True
     layer.use_pass_cryptomatte_object = True
     layer.pass_cryptomatte_depth = 6
-scene.render.image_settings.color_depth = "32"
-scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = os.path.join(out_dir, "cycles.exr")
 if blend:
     bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out_dir, "cornell.blend"))
