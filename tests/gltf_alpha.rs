@@ -325,3 +325,87 @@ fn a_one_sided_emissive_quad_emits_from_its_front_only() {
     // About ρ/π · L·A/d² = 0.5/π · 4/25 ≈ 0.025 below the middle.
     assert!(mean(&down) > 0.01, "the front emits {}", mean(&down));
 }
+
+/// The offset of the two placements of `*_twice.gltf` (tools/gltf/alpha_assets.py).
+const TWICE_OFFSET: f64 = 1.1;
+
+/// The world point of the quad's point `(x, y)` in placement `k` of `*_twice.gltf` (0: scaled
+/// by 1/2 and moved along −x; 1: moved along +x and mirrored in x).
+fn placed(k: usize, x: f64, y: f64) -> (f64, f64) {
+    if k == 0 { (-TWICE_OFFSET + 0.5 * x, 0.5 * y) } else { (TWICE_OFFSET - 0.5 * x, 0.5 * y) }
+}
+
+/// TOML keys placing a glTF object as node `k` of `*_twice.gltf` places its quad.
+fn placement_keys(k: usize) -> String {
+    let (sx, tx) = if k == 0 { (0.5, -TWICE_OFFSET) } else { (-0.5, TWICE_OFFSET) };
+    format!("scale = [{sx}, 0.5, 0.5]\ntranslate = [{tx}, 0, 0]\n")
+}
+
+/// `lit` placed twice, once as a glTF object named `q` and once by an `instance` object, as
+/// `*_twice.gltf` places its quad.
+fn instanced_twice(lit: &Path, behind: bool) -> String {
+    let mut toml = in_front_of_backdrop(lit, &format!("name = \"q\"\n{}", placement_keys(0)), behind, 4);
+    toml += &format!("[[objects]]\ntype = \"instance\"\nof = \"q\"\n{}", placement_keys(1));
+    toml
+}
+
+/// `lit` placed twice by two glTF objects: meshes placed once, flattened into world space.
+fn flattened_twice(lit: &Path, behind: bool) -> String {
+    let mut toml = in_front_of_backdrop(lit, &placement_keys(0), behind, 4);
+    toml += &format!("[[objects]]\ntype = \"gltf\"\npath = \"{}\"\n{}", lit.display(), placement_keys(1));
+    toml
+}
+
+fn combined(channels: &Channels) -> Vec<u32> {
+    ["R", "G", "B"]
+        .iter()
+        .flat_map(|c| channel(channels, &format!("ViewLayer.Combined.{c}")).iter().map(|v| v.to_bits()))
+        .collect()
+}
+
+/// A mesh with a MASK or one-sided material that is instanced — used by two glTF nodes, or
+/// placed again by a TOML `instance` object, one placement mirrored — keeps its holes and its
+/// culled back faces on both backends, bit for bit as its flattened copies render.
+#[test]
+fn instanced_mask_and_one_sided_meshes_render_as_their_flattened_copies() {
+    let dir = TempDir::new("gltf-alpha-instances");
+    let Some(assets) = assets(&dir) else { return };
+    for backend in ["embree", "native"] {
+        let args = ["--backend", backend, "--integrator", "path", "--passes", "combined,disagreement"];
+        let mask = assets.join("mask_lit.gltf");
+        let (flat, _) = render(&dir, &flattened_twice(&mask, false), &args);
+        let (toml, _) = render(&dir, &instanced_twice(&mask, false), &args);
+        let (gltf, _) = render(&dir, &in_front_of_backdrop(&assets.join("mask_twice.gltf"), "", false, 4), &args);
+        for (what, channels) in [("flattened", &flat), ("TOML instance", &toml), ("two glTF nodes", &gltf)] {
+            for k in 0..2 {
+                for (x, y) in [(-0.5, 0.5), (0.5, 0.5), (-0.5, -0.5), (0.5, -0.5)] {
+                    let want = if mask_is_there(x, y) { GREEN } else { RED };
+                    let (wx, wy) = placed(k, x, y);
+                    let got = rgb(channels, pixel_of(wx, wy));
+                    assert!(
+                        close(got, want, 1e-6),
+                        "{backend}, {what}, placement {k}: at ({x}, {y}) {got:?}, want {want:?}"
+                    );
+                }
+            }
+            assert_eq!(disagreements(channels), 0, "{backend}, {what}: the backends' first hits differ");
+        }
+        assert!(combined(&toml) == combined(&flat), "{backend}: the TOML instances differ from the flattened copies");
+        assert!(combined(&gltf) == combined(&flat), "{backend}: the glTF instances differ from the flattened copies");
+        // Seen from behind, the one-sided quads show the backdrop, instanced or not.
+        let one_sided = assets.join("one_sided_lit.gltf");
+        let (flat, _) = render(&dir, &flattened_twice(&one_sided, true), &args);
+        let (toml, _) = render(&dir, &instanced_twice(&one_sided, true), &args);
+        let (gltf, _) = render(&dir, &in_front_of_backdrop(&assets.join("one_sided_twice.gltf"), "", true, 4), &args);
+        for (what, channels) in [("flattened", &flat), ("TOML instance", &toml), ("two glTF nodes", &gltf)] {
+            for k in 0..2 {
+                // Seen from −z the image's x runs the other way.
+                let (wx, wy) = placed(k, 0.3, 0.3);
+                let got = rgb(channels, pixel_of(-wx, wy));
+                assert!(close(got, RED, 1e-6), "{backend}, {what}, placement {k}: the back face shows {got:?}");
+            }
+        }
+        assert!(combined(&toml) == combined(&flat), "{backend}: the one-sided TOML instances differ");
+        assert!(combined(&gltf) == combined(&flat), "{backend}: the one-sided glTF instances differ");
+    }
+}

@@ -35,7 +35,7 @@ fn the_raw_loops_keep_the_hits_the_wrapper_hands_over() {
         for kind in RayKind::ALL {
             let rays = workload::rays(&scene, kind, 40_000, 3, &embree).unwrap();
             assert!(rays.len() > 2 * CHUNK, "{kind}: several chunks, a partial packet at the end");
-            let raw_rays = RawRays::new(&rays);
+            let raw_rays = RawRays::new(&rays).expect("rays");
             if kind == RayKind::Shadow {
                 let mut want = vec![false; rays.len()];
                 bench::trace_occluded(&embree, &rays, &mut want, false).unwrap();

@@ -19,7 +19,8 @@
 //!   tree at once: [`TRIANGLE_BUILD_BYTES`] per triangle (meshes and prototypes, each once),
 //!   [`SPHERE_BUILD_BYTES`] per sphere, [`MESH_BUILD_BYTES`] per mesh and
 //!   [`BVH_BYTES_PER_INSTANCE`] per instance, plus Embree's own copy of every vertex and index
-//!   buffer (12 bytes per vertex and per triangle). Measured (peak RSS, `/usr/bin/time`, 2
+//!   buffer (12 bytes per vertex and per triangle), and each backend's copy of the meshes whose
+//!   alpha or back faces decide their hits ([`crate::scene::alpha::AlphaTest::size_for`]). Measured (peak RSS, `/usr/bin/time`, 2
 //!   threads) with 1 to 6 Stanford dragons (871,306 triangles each) as separate meshes: every
 //!   dragon adds 124.8 MB to Embree's peak and 108.7 MB to the native one's, of which 19.6 MB
 //!   are its arrays once loaded: 121 and 102 bytes per triangle beyond the geometry (Embree's
@@ -146,7 +147,8 @@ pub fn estimate(scene: &Scene, pixels: u64) -> Estimate {
         + scene.spheres.len() as u64 * SPHERE_BUILD_BYTES
         + meshes.count() as u64 * MESH_BUILD_BYTES
         + scene.instances.len() as u64 * BVH_BYTES_PER_INSTANCE
-        + embree_copy;
+        + embree_copy
+        + crate::scene::alpha::AlphaTest::size_for(scene) as u64;
     // The disagreement pass keeps both backends' BVHs.
     let bvh = if scene.output.passes.contains(Pass::Disagreement) { 2 * one_bvh } else { one_bvh };
     let floats: u64 = scene

@@ -28,15 +28,22 @@
 //!   drawn); secondary and shadow rays see both sides, as Cycles does, so a one-sided quad
 //!   seen from behind shows what is behind it and still casts its shadow.
 //!
-//! Only meshes of the scene's own list (`Scene::meshes`, ids = mesh indices) are tested;
-//! instanced prototypes are drawn whole (the glTF reader flattens a mesh with such a material
-//! instead of instancing it). A mesh without such a material costs nothing: Embree attaches
-//! the filter only to the meshes that have one, and the native BVH tests only their hits.
+//! - An instance's hit (geometry id [`Scene::instance_geom_id`]) is tested as its flattened
+//!   twin would be ([`crate::scene::instance::flatten`]): the prototype's triangle moved to
+//!   world space corner by corner ([`Instance::corners`], rounded to f32 as flattening rounds
+//!   them), two corners swapped under a mirroring transform (as flattening swaps them), the
+//!   instance's material if it replaces the prototype's, and the ray in world space as the
+//!   caller gave it, never the backend's object-space copy. So an instanced mesh keeps its
+//!   cut-outs and its culled back faces, and both backends decide its hits alike; only
+//!   BLEND's `ξ` differs from the flattened twin's, since it hashes the instance's own id.
+//!
+//! A mesh or prototype without such a material costs nothing: Embree attaches the filter only
+//! to the geometries that have one, and the native BVH tests only their hits.
 
 use crate::geometry::triangle;
 use crate::material::{AlphaMode, Coverage, Material};
 use crate::math::{Ray, Vec2};
-use crate::scene::{Mesh, Scene};
+use crate::scene::{Instance, Mesh, Scene};
 
 /// `ξ ∈ [0, 1)` of a ray meeting triangle `prim` of geometry `geom` (module docs).
 #[inline]
@@ -71,81 +78,175 @@ struct Surface {
     mesh: Mesh,
 }
 
-/// The alpha and back-face test of a scene's meshes, owned by the backend that calls it.
+impl Surface {
+    fn of(m: &Mesh) -> Surface {
+        Surface {
+            mesh: Mesh {
+                name: m.name.clone(),
+                positions: m.positions.clone(),
+                indices: m.indices.clone(),
+                uvs: m.uvs.clone(),
+                uvs1: m.uvs1.clone(),
+                alphas: m.alphas.clone(),
+                material: m.material,
+                triangle_materials: m.triangle_materials.clone(),
+                ..Mesh::default()
+            },
+        }
+    }
+
+    /// Bytes of the copy of `m`.
+    fn size_of(m: &Mesh) -> usize {
+        m.positions.len() * 12
+            + m.indices.len() * 12
+            + m.uvs.as_ref().map_or(0, |u| u.len() * 8)
+            + m.uvs1.as_ref().map_or(0, |u| u.len() * 8)
+            + m.alphas.as_ref().map_or(0, |a| a.len() * 4)
+            + m.triangle_materials.as_ref().map_or(0, |t| t.len() * 4)
+    }
+}
+
+/// The alpha and back-face test of a scene's meshes and instances, owned by the backend that
+/// calls it.
 #[derive(Debug)]
 pub struct AlphaTest {
     /// Per mesh (geometry id), its surface when one of its materials has a coverage.
     meshes: Vec<Option<Surface>>,
+    /// Per prototype, its surface when an instance of it has a material with a coverage.
+    prototypes: Vec<Option<Surface>>,
+    /// Per instance (geometry id `first_instance + k`), the instance when it is tested.
+    instances: Vec<Option<Instance>>,
+    /// The geometry id of instance 0.
+    first_instance: u32,
     /// Per material, its coverage.
     materials: Vec<Option<Coverage>>,
 }
 
 impl AlphaTest {
-    /// The test of `scene`'s meshes, `None` when no mesh has a material with a coverage (the
-    /// backends then test nothing).
+    /// The test of `scene`'s meshes and instances, `None` when none has a material with a
+    /// coverage (the backends then test nothing).
     pub fn of_scene(scene: &Scene) -> Option<AlphaTest> {
-        let materials: Vec<Option<Coverage>> =
-            scene.materials.iter().map(|m: &Material| m.coverage.as_deref().cloned()).collect();
-        let covered = |m: u32| materials.get(m as usize).is_some_and(Option::is_some);
-        let meshes: Vec<Option<Surface>> = scene
-            .meshes
-            .iter()
-            .map(|m| {
-                let any = match &m.triangle_materials {
-                    Some(t) => t.iter().any(|&i| covered(i)),
-                    None => covered(m.material) && !m.indices.is_empty(),
-                };
-                any.then(|| Surface {
-                    mesh: Mesh {
-                        name: m.name.clone(),
-                        positions: m.positions.clone(),
-                        indices: m.indices.clone(),
-                        uvs: m.uvs.clone(),
-                        uvs1: m.uvs1.clone(),
-                        alphas: m.alphas.clone(),
-                        material: m.material,
-                        triangle_materials: m.triangle_materials.clone(),
-                        ..Mesh::default()
-                    },
-                })
-            })
-            .collect();
-        meshes.iter().any(Option::is_some).then_some(AlphaTest { meshes, materials })
+        let (meshes, prototypes, instances) = Self::coverage(scene);
+        if !meshes.iter().chain(&instances).any(|&c| c) {
+            return None;
+        }
+        let copies = |list: &[Mesh], covered: &[bool]| -> Vec<Option<Surface>> {
+            list.iter().zip(covered).map(|(m, &c)| c.then(|| Surface::of(m))).collect()
+        };
+        Some(AlphaTest {
+            meshes: copies(&scene.meshes, &meshes),
+            prototypes: copies(&scene.prototypes, &prototypes),
+            instances: scene.instances.iter().zip(&instances).map(|(i, &c)| c.then(|| i.clone())).collect(),
+            first_instance: scene.instance_geom_id(0),
+            materials: scene.materials.iter().map(|m: &Material| m.coverage.as_deref().cloned()).collect(),
+        })
     }
 
-    /// Whether hits on geometry `geom` are tested at all.
+    /// Whether hits on geometry `geom` (a mesh or an instance) are tested at all.
     #[inline]
     pub fn covers(&self, geom: u32) -> bool {
-        self.meshes.get(geom as usize).is_some_and(Option::is_some)
+        if let Some(m) = self.meshes.get(geom as usize) {
+            return m.is_some();
+        }
+        let k = geom.checked_sub(self.first_instance);
+        k.and_then(|k| self.instances.get(k as usize)).is_some_and(Option::is_some)
     }
 
-    /// Bytes the test holds (its copies of the covered meshes).
+    /// Whether hits on some mesh of the scene's own list are tested.
+    pub fn covers_any_mesh(&self) -> bool {
+        self.meshes.iter().any(Option::is_some)
+    }
+
+    /// Whether some instance of prototype `p` is tested: the backends then test the
+    /// prototype's hits (and the test passes those of the instances it does not cover).
+    pub fn covers_prototype(&self, p: u32) -> bool {
+        self.prototypes.get(p as usize).is_some_and(Option::is_some)
+    }
+
+    /// Bytes the test holds (its copies of the covered meshes and prototypes).
     pub fn size_bytes(&self) -> usize {
-        self.meshes
-            .iter()
-            .flatten()
-            .map(|s| {
-                let m = &s.mesh;
-                m.positions.len() * 12
-                    + m.indices.len() * 12
-                    + m.uvs.as_ref().map_or(0, |u| u.len() * 8)
-                    + m.uvs1.as_ref().map_or(0, |u| u.len() * 8)
-                    + m.alphas.as_ref().map_or(0, |a| a.len() * 4)
-                    + m.triangle_materials.as_ref().map_or(0, |t| t.len() * 4)
-            })
-            .sum()
+        let surfaces =
+            self.meshes.iter().chain(&self.prototypes).flatten().map(|s| Surface::size_of(&s.mesh)).sum::<usize>();
+        surfaces + self.instances.iter().flatten().count() * std::mem::size_of::<Instance>()
     }
 
-    /// Whether the hit of `ray` on triangle `prim` of geometry `geom` exists (module docs).
-    /// Geometries and triangles the test does not know exist.
+    /// [`AlphaTest::size_bytes`] of `scene`'s test, found without building it (for the memory
+    /// budget, `crate::job::memory`).
+    pub fn size_for(scene: &Scene) -> usize {
+        let (meshes, prototypes, instances) = Self::coverage(scene);
+        let copy = |list: &[Mesh], covered: &[bool]| {
+            list.iter().zip(covered).filter(|(_, c)| **c).map(|(m, _)| Surface::size_of(m)).sum::<usize>()
+        };
+        copy(&scene.meshes, &meshes)
+            + copy(&scene.prototypes, &prototypes)
+            + instances.iter().filter(|&&c| c).count() * std::mem::size_of::<Instance>()
+    }
+
+    /// Which meshes, prototypes and instances of `scene` the test covers: those with a
+    /// material that has a coverage (an instance's own material when it replaces the
+    /// prototype's), and the prototypes of covered instances.
+    fn coverage(scene: &Scene) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
+        let covered = |m: u32| scene.materials.get(m as usize).is_some_and(|m| m.coverage.is_some());
+        let any_covered = |m: &Mesh, replaced: Option<u32>| match (replaced, &m.triangle_materials) {
+            _ if m.indices.is_empty() => false,
+            (Some(r), _) => covered(r),
+            (None, Some(t)) => t.iter().any(|&i| covered(i)),
+            (None, None) => covered(m.material),
+        };
+        let meshes = scene.meshes.iter().map(|m| any_covered(m, None)).collect();
+        let instances: Vec<bool> = scene
+            .instances
+            .iter()
+            .map(|i| scene.prototypes.get(i.prototype as usize).is_some_and(|p| any_covered(p, i.material)))
+            .collect();
+        let mut prototypes = vec![false; scene.prototypes.len()];
+        for (i, _) in scene.instances.iter().zip(&instances).filter(|(_, c)| **c) {
+            prototypes[i.prototype as usize] = true;
+        }
+        (meshes, prototypes, instances)
+    }
+
+    /// Whether the hit of `ray` (in world space) on triangle `prim` of geometry `geom` exists
+    /// (module docs). Geometries and triangles the test does not know exist.
     #[inline]
     pub fn passes(&self, geom: u32, prim: u32, ray: &Ray) -> bool {
-        let Some(Some(surface)) = self.meshes.get(geom as usize) else { return true };
+        let p = prim as usize;
+        if let Some(mesh) = self.meshes.get(geom as usize) {
+            let Some(surface) = mesh else { return true };
+            let mesh = &surface.mesh;
+            let Some(&idx) = mesh.indices.get(p) else { return true };
+            let corners = idx.map(|i| mesh.positions[i as usize]);
+            return self.triangle_passes(mesh, mesh.material_of(p), corners, idx, geom, prim, ray);
+        }
+        let k = geom.checked_sub(self.first_instance);
+        let Some(Some(inst)) = k.and_then(|k| self.instances.get(k as usize)) else { return true };
+        let Some(Some(surface)) = self.prototypes.get(inst.prototype as usize) else { return true };
         let mesh = &surface.mesh;
-        let Some(&idx) = mesh.indices.get(prim as usize) else { return true };
-        let Some(Some(c)) = self.materials.get(mesh.material_of(prim as usize) as usize) else { return true };
+        let Some(&(mut idx)) = mesh.indices.get(p) else { return true };
+        let mut corners = inst.corners(mesh, p);
+        if inst.transform.flips_orientation() {
+            // As `Transform::apply_to_mesh` stores the flattened twin's triangle.
+            idx.swap(1, 2);
+            corners.swap(1, 2);
+        }
+        self.triangle_passes(mesh, inst.material_of(mesh, p), corners, idx, geom, prim, ray)
+    }
+
+    /// The test of one triangle of `mesh` with world-space `corners` (of vertices `idx`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn triangle_passes(
+        &self,
+        mesh: &Mesh,
+        material: u32,
+        corners: [crate::math::Vec3; 3],
+        idx: [u32; 3],
+        geom: u32,
+        prim: u32,
+        ray: &Ray,
+    ) -> bool {
+        let Some(Some(c)) = self.materials.get(material as usize) else { return true };
         let idx = idx.map(|i| i as usize);
-        let corners = idx.map(|i| mesh.positions[i]);
         if c.cull_back_faces && ray.camera && triangle::normal(corners[0], corners[1], corners[2]).dot(ray.dir) > 0.0 {
             return false;
         }

@@ -302,7 +302,7 @@ pub fn run(scene: &Scene, config: &Config) -> Result<Report, Error> {
         }
         for (kind, rays) in &ray_sets {
             let shadow = *kind == RayKind::Shadow;
-            let raw_rays = RawRays::new(rays);
+            let raw_rays = RawRays::new(rays)?;
             // Runs interleave the engines, so that a change in the machine's load hits all of
             // them alike, each run in its own order (see `engine_order`).
             let n = config.engines.len();

@@ -19,6 +19,9 @@ casters).
 - one_sided_*.gltf: alphaMode OPAQUE, doubleSided false.
 - one_sided_emitter.gltf: doubleSided false, base colour black, emitting EMITTER (from its
   front, +z, only).
+- mask_twice.gltf, one_sided_twice.gltf: the quad of mask_lit.gltf and of one_sided_lit.gltf
+  placed by two nodes (so stored once and instanced), both scaled by 1/2, one translated by
+  TWICE_OFFSET along -x, the other along +x and mirrored in x (scale -1/2).
 """
 
 import base64
@@ -36,6 +39,7 @@ MASK_ALPHA = [255, 0, 204, 255]
 BLEND_ALPHA = 0.25
 EMISSION = [0.0, 1.0, 0.0]
 EMITTER = [1.0, 1.0, 1.0]
+TWICE_OFFSET = 1.1
 
 
 def png_rgba(alphas):
@@ -122,6 +126,14 @@ def main(out):
             lit, pbr=g.PbrMetallicRoughness(baseColorFactor=[0, 0, 0, 1], metallicFactor=0), doubleSided=False
         )
         quad(one_sided).save(os.path.join(out, f"one_sided_{suffix}.gltf"))
+        if lit:
+            for name, asset in [("mask", quad(mask, MASK_ALPHA, vertex_alpha=VERTEX_ALPHA)), ("one_sided", quad(one_sided))]:
+                asset.nodes = [
+                    g.Node(mesh=0, translation=[-TWICE_OFFSET, 0, 0], scale=[0.5, 0.5, 0.5]),
+                    g.Node(mesh=0, translation=[TWICE_OFFSET, 0, 0], scale=[-0.5, 0.5, 0.5]),
+                ]
+                asset.scenes = [g.Scene(nodes=[0, 1])]
+                asset.save(os.path.join(out, f"{name}_twice.gltf"))
     emitter = g.Material(
         pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[0, 0, 0, 1], metallicFactor=0),
         emissiveFactor=EMITTER,
@@ -135,6 +147,7 @@ def main(out):
             "mask_alpha": MASK_ALPHA,
             "blend_alpha": BLEND_ALPHA,
             "emission": EMISSION,
+            "twice_offset": TWICE_OFFSET,
         },
         open(os.path.join(out, "values.json"), "w"),
     )

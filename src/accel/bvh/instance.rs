@@ -9,17 +9,23 @@
 //! Embree's; their `ng`, found in the prototype's space, is reported in world space
 //! ([`WorldNormals`]).
 //!
+//! An instance whose hits the alpha test decides ([`crate::scene::alpha`]) is traced through
+//! its prototype's tree with the test, given the instance's id and the world-space ray, so it
+//! decides as for the flattened twin and as Embree's filter does.
+//!
 //! The top tree splits the instances at the median of their box centres along the widest
 //! axis, down to leaves of `TOP_LEAF`; it is small (a node per two instances) and its build
 //! is deterministic.
 
 use glam::Affine3A;
+use std::sync::Arc;
 
 use super::{Bvh, Error};
 use crate::accel::instance::WorldNormals;
 use crate::accel::{Accel, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Scene;
+use crate::scene::alpha::AlphaTest;
 
 /// Most instances in a top-level leaf.
 const TOP_LEAF: usize = 2;
@@ -47,11 +53,14 @@ pub struct Instances {
     entries: Vec<Entry>,
     nodes: Vec<TopNode>,
     normals: WorldNormals,
+    /// The scene's alpha test, when it covers some instance.
+    alpha: Option<Arc<AlphaTest>>,
 }
 
 impl Instances {
-    /// The second level of `scene`, or `None` when it has no instances.
-    pub fn build(scene: &Scene) -> Result<Option<Instances>, Error> {
+    /// The second level of `scene`, or `None` when it has no instances; `alpha` is the
+    /// scene's alpha test.
+    pub fn build(scene: &Scene, alpha: Option<Arc<AlphaTest>>) -> Result<Option<Instances>, Error> {
         if scene.instances.is_empty() {
             return Ok(None);
         }
@@ -78,7 +87,8 @@ impl Instances {
         let mut nodes = vec![TopNode { bounds: Aabb::EMPTY, first: 0, count: 0 }];
         split(&mut items, 0, 0, &mut nodes);
         let entries = items.into_iter().map(|(_, e)| e).collect();
-        Ok(Some(Instances { prototypes, entries, nodes, normals: WorldNormals::of_scene(scene) }))
+        let alpha = alpha.filter(|a| (0..scene.instances.len()).any(|k| a.covers(scene.instance_geom_id(k))));
+        Ok(Some(Instances { prototypes, entries, nodes, normals: WorldNormals::of_scene(scene), alpha }))
     }
 
     /// The closest instance hit within `(ray.tnear, ray.tfar)`.
@@ -87,7 +97,12 @@ impl Instances {
         let mut tfar = ray.tfar;
         self.visit(ray, |entry| {
             let local = self.local_ray(entry, ray, tfar);
-            if let Ok(Some(hit)) = self.prototypes[entry.prototype as usize].intersect(&local) {
+            let prototype = &self.prototypes[entry.prototype as usize];
+            let found = match self.tested(entry) {
+                Some(alpha) => prototype.intersect_instance(&local, alpha, ray, entry.geom_id),
+                None => prototype.intersect(&local).ok().flatten(),
+            };
+            if let Some(hit) = found {
                 if hit.t < tfar {
                     tfar = hit.t;
                     closest = Some(Hit { geom_id: entry.geom_id, ..hit });
@@ -103,10 +118,20 @@ impl Instances {
         let mut hit = false;
         self.visit(ray, |entry| {
             let local = self.local_ray(entry, ray, ray.tfar);
-            hit = self.prototypes[entry.prototype as usize].occluded(&local).unwrap_or(false);
+            let prototype = &self.prototypes[entry.prototype as usize];
+            hit = match self.tested(entry) {
+                Some(alpha) => prototype.occluded_instance(&local, alpha, ray, entry.geom_id),
+                None => prototype.occluded(&local).unwrap_or(false),
+            };
             !hit
         });
         hit
+    }
+
+    /// The alpha test, if it decides `entry`'s hits.
+    #[inline]
+    fn tested(&self, entry: &Entry) -> Option<&AlphaTest> {
+        self.alpha.as_deref().filter(|a| a.covers(entry.geom_id))
     }
 
     #[inline]

@@ -342,6 +342,7 @@ impl Bvh {
             None => (Vec::new(), ChildRef::EMPTY, 0, Aabb::EMPTY),
         };
         let blocks = leaves.blocks();
+        let alpha = AlphaTest::of_scene(scene).map(Arc::new);
         if nodes.len() > node::MAX_NODE_INDEX {
             return Err(invalid(
                 "scene".into(),
@@ -359,9 +360,9 @@ impl Bvh {
             spheres_geom_id: scene.spheres_geom_id(),
             planes_geom_id: scene.planes_geom_id(),
             shallow: (WIDTH - 1) * depth <= STACK,
-            instances: instance::Instances::build(scene)?.map(Box::new),
+            instances: instance::Instances::build(scene, alpha.clone())?.map(Box::new),
             kernel: Traversal::of(Kernel::best()).unwrap_or(Traversal::Portable),
-            alpha: AlphaTest::of_scene(scene).map(Arc::new),
+            alpha: alpha.filter(|a| a.covers_any_mesh()),
         })
     }
 
@@ -473,7 +474,7 @@ impl Bvh {
     #[inline(never)]
     fn intersect_filtered(&self, ray: &Ray, tfar: f32, alpha: &AlphaTest) -> Option<Hit> {
         let r = TraversalRay::new(ray);
-        let found = self.intersect_by(ray, tfar, &r, &Filtered { boxes: &r, alpha, ray });
+        let found = self.intersect_by(ray, tfar, &r, &Filtered { boxes: &r, alpha, ray, geom: None });
         found.map(|f| self.hit_of(ray, tfar, f))
     }
 
@@ -481,7 +482,28 @@ impl Bvh {
     #[inline(never)]
     fn occluded_filtered(&self, ray: &Ray, alpha: &AlphaTest) -> bool {
         let r = TraversalRay::new(ray);
-        self.occluded_by(ray, &r, &Filtered { boxes: &r, alpha, ray })
+        self.occluded_by(ray, &r, &Filtered { boxes: &r, alpha, ray, geom: None })
+    }
+
+    /// The closest hit of `local` (a ray in this prototype's space) on instance `geom`, whose
+    /// hits `alpha` decides from the caller's world-space ray `world`.
+    fn intersect_instance(&self, local: &Ray, alpha: &AlphaTest, world: &Ray, geom: u32) -> Option<Hit> {
+        if !traceable(local) {
+            return None;
+        }
+        let r = TraversalRay::new(local);
+        let found =
+            self.intersect_by(local, local.tfar, &r, &Filtered { boxes: &r, alpha, ray: world, geom: Some(geom) });
+        found.map(|f| self.hit_of(local, local.tfar, f))
+    }
+
+    /// Whether anything lies on `local` in this prototype, as [`Bvh::intersect_instance`].
+    fn occluded_instance(&self, local: &Ray, alpha: &AlphaTest, world: &Ray, geom: u32) -> bool {
+        if !traceable(local) {
+            return false;
+        }
+        let r = TraversalRay::new(local);
+        self.occluded_by(local, &r, &Filtered { boxes: &r, alpha, ray: world, geom: Some(geom) })
     }
 
     /// Whether anything in the tree lies on the ray within `(tnear, tfar)`.
@@ -866,6 +888,9 @@ struct Filtered<'a> {
     alpha: &'a AlphaTest,
     /// The ray as the caller gave it (in world space): the test's input.
     ray: &'a Ray,
+    /// The geometry id the test sees for every hit (an instance's, when the tree is its
+    /// prototype's), else the hit block's own.
+    geom: Option<u32>,
 }
 
 impl Filtered<'_> {
@@ -882,7 +907,7 @@ impl Filtered<'_> {
         let mut left = block.triangles;
         loop {
             let (lane, _) = found;
-            if self.alpha.passes(block.geom_ids[lane], block.prim_ids[lane], self.ray) {
+            if self.alpha.passes(self.geom.unwrap_or(block.geom_ids[lane]), block.prim_ids[lane], self.ray) {
                 return Some(found);
             }
             left.set(lane, [Vec3::NAN; 3]);

@@ -85,8 +85,9 @@ impl EmbreeAccel {
             return Err(Error::InvalidInput { object: format!("plane {i}"), problem });
         }
         let mut builder = SceneBuilder::new(device, options)?;
-        if let Some(test) = crate::scene::alpha::AlphaTest::of_scene(scene) {
-            builder.set_alpha_test(std::sync::Arc::new(test));
+        let alpha = crate::scene::alpha::AlphaTest::of_scene(scene).map(std::sync::Arc::new);
+        if let Some(test) = &alpha {
+            builder.set_alpha_test(test.clone());
         }
         for mesh in &scene.meshes {
             builder.add_triangle_mesh(&mesh.name, &mesh.positions, &mesh.indices)?;
@@ -97,8 +98,11 @@ impl EmbreeAccel {
             return Err(Error::InvalidInput { object, problem });
         }
         let mut prototypes = Vec::with_capacity(scene.prototypes.len());
-        for mesh in &scene.prototypes {
+        for (p, mesh) in scene.prototypes.iter().enumerate() {
             let mut proto = SceneBuilder::new(device, options)?;
+            if let Some(test) = alpha.as_ref().filter(|t| t.covers_prototype(p as u32)) {
+                proto.set_prototype_alpha_test(test.clone());
+            }
             proto.add_triangle_mesh(&mesh.name, &mesh.positions, &mesh.indices)?;
             prototypes.push(proto.commit()?);
         }

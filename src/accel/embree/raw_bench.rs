@@ -11,7 +11,7 @@
 //! Planes are not in the Embree scene (strahl tests them in Rust), so these rows measure the
 //! BVH alone: compare them with scenes without planes, such as a bare mesh.
 
-use super::scene::{PACKET_WIDTH, QueryContext, Scene, Valid8};
+use super::scene::{MAX_QUERY_RAYS, PACKET_WIDTH, QueryContext, Scene, Valid8};
 use super::{Error, sys};
 use crate::math::Ray;
 
@@ -37,38 +37,56 @@ impl RawHit {
 
 /// Rays in Embree's layout, ready for the raw loops (`tnear` already moved up one ulp, as
 /// the wrapper does for strahl's open interval).
-pub struct RawRays(Vec<sys::RTCRay>);
+/// The strahl rays are kept beside them: an alpha filter on an instance reads the world-space
+/// ray that an Embree ray's `id` indexes (`super::alpha_filter`).
+pub struct RawRays {
+    rtc: Vec<sys::RTCRay>,
+    rays: Vec<Ray>,
+}
 
 impl RawRays {
-    pub fn new(rays: &[Ray]) -> Self {
-        RawRays(rays.iter().map(super::scene::rtc_ray).collect())
+    pub fn new(rays: &[Ray]) -> Result<Self, Error> {
+        if rays.len() > MAX_QUERY_RAYS {
+            return Err(Error::InvalidInput {
+                object: "benchmark rays".into(),
+                problem: format!("{} rays, more than {MAX_QUERY_RAYS}", rays.len()),
+            });
+        }
+        let rtc = rays.iter().enumerate().map(|(i, r)| super::scene::rtc_ray(r, i as u32)).collect();
+        Ok(RawRays { rtc, rays: rays.to_vec() })
     }
 
     pub fn len(&self) -> usize {
-        self.0.len()
+        self.rtc.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
+        self.rtc.is_empty()
     }
 
     /// The rays in chunks of `size`, for handing to a thread pool.
     pub fn chunks(&self, size: usize) -> impl Iterator<Item = RawChunk<'_>> + '_ {
-        self.0.chunks(size).map(RawChunk)
+        let size = size.max(1);
+        let chunks = self.rtc.chunks(size).zip(self.rays.chunks(size));
+        chunks.enumerate().map(move |(k, (rtc, rays))| RawChunk { rtc, rays, first: (k * size) as u32 })
     }
 }
 
-/// A run of [`RawRays`].
+/// A run of [`RawRays`]: the Embree rays, the strahl rays, and the index of the first.
 #[derive(Clone, Copy)]
-pub struct RawChunk<'a>(&'a [sys::RTCRay]);
+pub struct RawChunk<'a> {
+    rtc: &'a [sys::RTCRay],
+    rays: &'a [Ray],
+    first: u32,
+}
 
 impl RawChunk<'_> {
     pub fn len(&self) -> usize {
-        self.0.len()
+        self.rtc.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
+        self.rtc.is_empty()
     }
 }
 
@@ -76,10 +94,10 @@ impl RawChunk<'_> {
 /// consecutive rays with `packets`, the last packet of a chunk partial); `hits[i]` answers
 /// `rays[i]`. Call from a thread with flush-to-zero on.
 pub fn intersect(scene: &Scene, packets: bool, rays: RawChunk<'_>, hits: &mut [RawHit]) -> Result<(), Error> {
-    let rays = rays.0;
+    let RawChunk { rtc: rays, rays: world, first } = rays;
     assert_eq!(rays.len(), hits.len(), "raw_bench::intersect: rays and hits differ in length");
     let raw = scene.raw();
-    let mut ctx = QueryContext::new(packets);
+    let mut ctx = QueryContext::with_first(packets, world, first);
     let ctx_ptr: *mut QueryContext = &mut ctx;
     #[cfg(embree4)]
     let flags = if packets { sys::RTC_RAY_QUERY_FLAG_COHERENT } else { sys::RTC_RAY_QUERY_FLAG_INCOHERENT };
@@ -146,10 +164,10 @@ pub fn intersect(scene: &Scene, packets: bool, rays: RawChunk<'_>, hits: &mut [R
 /// `occluded[i]` becomes 1 if `rays[i]` is blocked, else 0. Call from a thread with
 /// flush-to-zero on.
 pub fn occluded(scene: &Scene, packets: bool, rays: RawChunk<'_>, occluded: &mut [u8]) -> Result<(), Error> {
-    let rays = rays.0;
+    let RawChunk { rtc: rays, rays: world, first } = rays;
     assert_eq!(rays.len(), occluded.len(), "raw_bench::occluded: rays and answers differ in length");
     let raw = scene.raw();
-    let mut ctx = QueryContext::new(packets);
+    let mut ctx = QueryContext::with_first(packets, world, first);
     let ctx_ptr: *mut QueryContext = &mut ctx;
     #[cfg(embree4)]
     let flags = if packets { sys::RTC_RAY_QUERY_FLAG_COHERENT } else { sys::RTC_RAY_QUERY_FLAG_INCOHERENT };
@@ -201,5 +219,6 @@ fn set_lanes(packet: &mut sys::RTCRay8, valid: &mut Valid8, rays: &[sys::RTCRay]
         (packet.dir_x[lane], packet.dir_y[lane], packet.dir_z[lane], packet.tfar[lane]) =
             (r.dir_x, r.dir_y, r.dir_z, r.tfar);
         packet.mask[lane] = u32::MAX;
+        packet.id[lane] = r.id;
     }
 }

@@ -16,19 +16,30 @@ use crate::scene::mesh::triangles_problem;
 
 /// Per-query state handed to Embree as its query context. It begins with Embree's own context
 /// (`#[repr(C)]`, first field), so the callbacks can cast the context pointer Embree gives them
-/// back to this type and report a caught panic here.
+/// back to this type and report a caught panic here; the alpha filter also reads the query's
+/// rays here, in world space, by the index each Embree ray carries in its `id` ([`rtc_ray`]).
 #[repr(C)]
-pub(crate) struct QueryContext {
+pub(crate) struct QueryContext<'a> {
     #[cfg(embree3)]
     raw: sys::RTCIntersectContext,
     #[cfg(embree4)]
     raw: sys::RTCRayQueryContext,
     panic: Cell<Option<String>>,
+    rays: &'a [Ray],
+    /// The index of `rays[0]`.
+    first: u32,
 }
 
-impl QueryContext {
+impl<'a> QueryContext<'a> {
+    /// The context of a query of `rays` (Embree's ray `i` carrying index `i`).
     #[inline]
-    pub(super) fn new(coherent: bool) -> Self {
+    pub(super) fn new(coherent: bool, rays: &'a [Ray]) -> Self {
+        Self::with_first(coherent, rays, 0)
+    }
+
+    /// The context of a query of `rays`, Embree's ray `i` carrying index `first + i`.
+    #[inline]
+    pub(super) fn with_first(coherent: bool, rays: &'a [Ray], first: u32) -> Self {
         #[cfg(embree3)]
         let raw = sys::init_intersect_context(if coherent {
             sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
@@ -40,7 +51,13 @@ impl QueryContext {
             let _ = coherent; // Embree 4 takes the flag in the arguments instead
             sys::init_ray_query_context()
         };
-        QueryContext { raw, panic: Cell::new(None) }
+        QueryContext { raw, panic: Cell::new(None), rays, first }
+    }
+
+    /// The query's ray with index `index` ([`ray_index`]), as strahl gave it.
+    #[inline]
+    pub(super) fn ray(&self, index: u32) -> Option<&Ray> {
+        self.rays.get(index.checked_sub(self.first)? as usize)
     }
 
     pub(crate) fn inst_id(&self, level: usize) -> u32 {
@@ -109,6 +126,9 @@ pub struct SceneBuilder {
     panic_in_callbacks: bool,
     /// The alpha test whose filter the triangle meshes it covers get (`alpha_filter`).
     alpha: Option<Arc<AlphaTest>>,
+    /// Whether every triangle mesh gets the filter (a prototype's scene, whose hits the test
+    /// decides per instance), not only those the test covers by geometry id.
+    alpha_every_mesh: bool,
 }
 
 impl SceneBuilder {
@@ -122,6 +142,7 @@ impl SceneBuilder {
             next_id: 0,
             panic_in_callbacks: false,
             alpha: None,
+            alpha_every_mesh: false,
         };
         take_error("rtcNewScene")?;
         if raw.is_null() {
@@ -142,6 +163,14 @@ impl SceneBuilder {
     /// functions ([`super::alpha_filter`]); the scene keeps `test` alive.
     pub fn set_alpha_test(&mut self, test: Arc<AlphaTest>) {
         self.alpha = Some(test);
+    }
+
+    /// Gives every triangle mesh added after this call `test`'s filter functions: the scene is
+    /// a prototype some of whose instances the test covers (it decides each instance's hits by
+    /// the instance's id, [`super::instance::hit_geom_id`]).
+    pub fn set_prototype_alpha_test(&mut self, test: Arc<AlphaTest>) {
+        self.alpha = Some(test);
+        self.alpha_every_mesh = true;
     }
 
     /// The id the next geometry added will get.
@@ -197,7 +226,7 @@ impl SceneBuilder {
             }
             ptr::copy_nonoverlapping(indices.as_ptr() as *const u8, ib as *mut u8, 12 * indices.len());
         }
-        if let Some(test) = self.alpha.as_ref().filter(|t| t.covers(id)) {
+        if let Some(test) = self.alpha.as_ref().filter(|t| self.alpha_every_mesh || t.covers(id)) {
             // SAFETY: `geometry` is live and not yet committed; the user pointer is the
             // `AlphaTest` in an `Arc` that the builder, then the committed scene, holds for as
             // long as Embree may call the filter; the filter is `extern "C"` and never unwinds.
@@ -351,19 +380,21 @@ impl Drop for Scene {
 /// Embree's ray for a strahl ray. Embree accepts hits with `t ≥ tnear`; strahl's interval is
 /// open (`t > tnear`, the lecture's `t > 0`), so tnear moves up by one ulp.
 ///
+/// The ray's `id` carries its index in the query's rays and its camera flag ([`ray_id`]).
+///
 /// The ray is assembled as three 16-byte words (origin and tnear, direction and time, tfar and
 /// the three integers), so that it is stored with vector stores: Embree reads it back with
 /// 16-byte loads, and a load that spans several narrower stores cannot be forwarded from the
 /// store buffer (a stall on every query; field-by-field stores cost the wrapper about a third
 /// of raw Embree's primary-ray speed, see `strahl bench`).
 #[inline]
-pub(super) fn rtc_ray(r: &Ray) -> sys::RTCRay {
+pub(super) fn rtc_ray(r: &Ray, index: u32) -> sys::RTCRay {
     let words = RayWords(
         glam::Vec4::new(r.org.x, r.org.y, r.org.z, open_tnear(r.tnear)),
         glam::Vec4::new(r.dir.x, r.dir.y, r.dir.z, 0.0),
         // tfar, then mask (every bit: a NaN pattern, moved, never computed with), id (the
-        // camera flag the alpha filter reads, moved too), flags 0
-        glam::Vec4::new(r.tfar, f32::from_bits(u32::MAX), f32::from_bits(ray_id(r)), 0.0),
+        // index and camera flag the alpha filter reads, moved too), flags 0
+        glam::Vec4::new(r.tfar, f32::from_bits(u32::MAX), f32::from_bits(ray_id(r, index)), 0.0),
     );
     // SAFETY: `RayWords` and `RTCRay` are both 48 bytes of 4-byte plain-old-data fields in the
     // same order (org_x, org_y, org_z, tnear; dir_x, dir_y, dir_z, time; tfar, mask, id, flags;
@@ -371,11 +402,17 @@ pub(super) fn rtc_ray(r: &Ray) -> sys::RTCRay {
     unsafe { std::mem::transmute::<RayWords, sys::RTCRay>(words) }
 }
 
-/// The `id` Embree carries for the ray: [`super::alpha_filter::CAMERA_RAY_ID`] for camera
-/// rays, else 0.
+/// The `id` Embree carries for the ray: its index among the query's rays in the upper 31
+/// bits, its camera flag ([`super::alpha_filter::CAMERA_RAY_ID`]) in the lowest.
 #[inline]
-fn ray_id(r: &Ray) -> u32 {
-    if r.camera { super::alpha_filter::CAMERA_RAY_ID } else { 0 }
+fn ray_id(r: &Ray, index: u32) -> u32 {
+    (index << 1) | if r.camera { super::alpha_filter::CAMERA_RAY_ID } else { 0 }
+}
+
+/// The index in the query's rays that an Embree ray's `id` carries ([`ray_id`]).
+#[inline]
+pub(super) fn ray_index(id: u32) -> u32 {
+    id >> 1
 }
 
 #[repr(C, align(16))]
@@ -392,12 +429,12 @@ pub(super) fn open_tnear(t: f32) -> f32 {
 /// Lane `lane` of an 8-wide packet: `r`'s origin and direction, its open interval
 /// (`tnear` as [`open_tnear`] makes it), every mask bit set.
 #[inline]
-fn set_lane(p: &mut sys::RTCRay8, lane: usize, r: &Ray) {
+fn set_lane(p: &mut sys::RTCRay8, lane: usize, r: &Ray, index: u32) {
     (p.org_x[lane], p.org_y[lane], p.org_z[lane]) = (r.org.x, r.org.y, r.org.z);
     (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
     (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
     p.mask[lane] = u32::MAX;
-    p.id[lane] = ray_id(r);
+    p.id[lane] = ray_id(r, index);
 }
 
 #[inline]
@@ -409,6 +446,9 @@ fn empty_hit() -> sys::RTCHit {
         ..Default::default()
     }
 }
+
+/// Most rays in one query: their indices must fit in the 31 bits of `id` ([`ray_id`]).
+pub(super) const MAX_QUERY_RAYS: usize = (u32::MAX >> 1) as usize;
 
 /// Rays per packet query.
 pub const PACKET_WIDTH: usize = 8;
@@ -425,8 +465,8 @@ impl Scene {
     /// The closest hit of `ray` in `(tnear, tfar)` (`rtcIntersect1`).
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, Error> {
-        let mut rayhit = sys::RTCRayHit { ray: rtc_ray(ray), hit: empty_hit() };
-        let mut ctx = QueryContext::new(false);
+        let mut rayhit = sys::RTCRayHit { ray: rtc_ray(ray, 0), hit: empty_hit() };
+        let mut ctx = QueryContext::new(false, std::slice::from_ref(ray));
         let ctx_ptr: *mut QueryContext = &mut ctx;
         // SAFETY: the scene is committed; `rayhit` is a valid, initialised RTCRayHit (its
         // size checked against the headers by bindgen's layout asserts); `ctx_ptr` covers the
@@ -446,8 +486,8 @@ impl Scene {
 
     /// Whether anything lies on `ray` within `(tnear, tfar)` (`rtcOccluded1`).
     pub fn occluded(&self, ray: &Ray) -> Result<bool, Error> {
-        let mut rtc = rtc_ray(ray);
-        let mut ctx = QueryContext::new(false);
+        let mut rtc = rtc_ray(ray, 0);
+        let mut ctx = QueryContext::new(false, std::slice::from_ref(ray));
         let ctx_ptr: *mut QueryContext = &mut ctx;
         // SAFETY: as in `intersect`, with an RTCRay.
         unsafe {
@@ -481,7 +521,13 @@ impl Scene {
                 problem: format!("{} rays and {} hits", rays.len(), hits.len()),
             });
         }
-        let mut ctx = QueryContext::new(true);
+        if rays.len() > MAX_QUERY_RAYS {
+            return Err(Error::InvalidInput {
+                object: "ray packets".into(),
+                problem: format!("{} rays in one query, more than {MAX_QUERY_RAYS}", rays.len()),
+            });
+        }
+        let mut ctx = QueryContext::new(true, rays);
         let ctx_ptr: *mut QueryContext = &mut ctx;
         #[cfg(embree4)]
         let mut args = sys::init_intersect_arguments(sys::RTC_RAY_QUERY_FLAG_COHERENT, ctx_ptr.cast());
@@ -500,7 +546,7 @@ impl Scene {
                     continue;
                 };
                 valid.0[lane] = -1;
-                set_lane(&mut packet.ray, lane, r);
+                set_lane(&mut packet.ray, lane, r, (k * PACKET_WIDTH + lane) as u32);
             }
             for lane in 0..rays.len() {
                 let h = &mut packet.hit;
@@ -553,13 +599,13 @@ impl Scene {
                 continue;
             }
             valid.0[lane] = -1;
-            set_lane(&mut packet, lane, r);
+            set_lane(&mut packet, lane, r, lane as u32);
         }
         if valid.0 == [0; PACKET_WIDTH] {
             occluded.fill(true);
             return Ok(());
         }
-        let mut ctx = QueryContext::new(true);
+        let mut ctx = QueryContext::new(true, rays);
         let ctx_ptr: *mut QueryContext = &mut ctx;
         // SAFETY: `valid` and `packet` are 32-byte aligned as rtcOccluded8 requires, fully
         // initialised; inactive lanes are marked 0 in `valid`; the context is as in `intersect`.

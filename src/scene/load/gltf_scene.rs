@@ -69,25 +69,11 @@ pub fn add_gltf(
         }
         mesh
     };
-    // A mesh placed by several nodes is stored once, as a prototype with an instance per node;
-    // one placed once is flattened into world space, and so is one with a material whose
-    // alpha decides its hits (`crate::scene::alpha` tests flattened meshes only). A mesh that
-    // is only one-sided (`doubleSided: false`, glTF's default) stays instanced, so that a file
-    // that repeats a mesh keeps its memory; its instances are drawn two-sided.
+    // A mesh placed by several nodes is stored once, as a prototype with an instance per node
+    // (its alpha and back faces tested per instance, `crate::scene::alpha`); one placed once
+    // is flattened into world space.
     let mut uses = vec![0usize; file.meshes.len()];
     file.nodes.iter().for_each(|n| uses[n.mesh] += 1);
-    let covered = |m: &Mesh| {
-        let has = |i: u32| {
-            let coverage = file.materials.get(i as usize).and_then(|m| m.coverage.as_ref());
-            coverage.is_some_and(|c| c.mode != crate::material::AlphaMode::Opaque)
-        };
-        material.is_none() && m.triangle_materials.as_ref().map_or(has(m.material), |t| t.iter().any(|&i| has(i)))
-    };
-    for (m, u) in file.meshes.iter().zip(&mut uses) {
-        if covered(m) {
-            *u = (*u).min(1);
-        }
-    }
     let mut prototype_of: Vec<Option<u32>> = vec![None; file.meshes.len()];
     let mut placements = Vec::new();
     for node in &file.nodes {
