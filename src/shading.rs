@@ -65,7 +65,7 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32) -> S
     let Some(pbr) = m.pbr.as_deref() else {
         let albedo = match &m.diffuse {
             Texture::Image(_) if footprint > 0.0 => m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color,
-            _ => sp.albedo,
+            _ => sp.albedo(scene),
         };
         let params = LectureParams {
             albedo,

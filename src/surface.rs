@@ -53,8 +53,6 @@ pub struct SurfacePoint {
     pub front_face: bool,
     /// Index into `Scene::materials`.
     pub material: u32,
-    /// Diffuse albedo ρ here: the material's texture times the interpolated vertex colour.
-    pub albedo: Vec3,
     /// Texture coordinates `TEXCOORD_0` and `TEXCOORD_1` (the first where the mesh has no
     /// second set), bottom-left origin; zero where the surface has none.
     pub uv: [Vec2; 2],
@@ -148,8 +146,15 @@ impl SurfacePoint {
             None if ns.dot(ray.dir) >= 0.0 => ng,
             None => ns,
         };
-        let albedo = scene.materials[material as usize].diffuse.albedo_at(p, ng_outward, uv) * colour;
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, albedo, uv, color: colour, t, uv_density }
+        SurfacePoint { p, ng_outward, ng, ns, front_face, material, uv, color: colour, t, uv_density }
+    }
+
+    /// The diffuse albedo ρ here: the material's diffuse texture (a PBR material's lecture
+    /// form's, [`crate::material::Pbr::lecture_form`]) times the interpolated vertex colour.
+    /// What the Whitted integrator and the lecture BSDF shade with, computed when asked: the
+    /// path tracer reads a PBR material's own textures instead ([`crate::shading`]).
+    pub fn albedo(&self, scene: &Scene) -> Vec3 {
+        scene.materials[self.material as usize].diffuse.albedo_at(self.p, self.ng_outward, self.uv) * self.color
     }
 }
 

@@ -19,6 +19,8 @@
 //!   so a white conductor reflects 1 at every roughness;
 //! * the Lambertian base is albedo-scaled beneath it, `(1 − E_s(μo))(1 − E_s(μi))/(1 − Ē_s)`
 //!   ([`super::lambert`]): reciprocal, and a white dielectric reflects 1 at every roughness.
+//!   Under a layer that reflects nothing (`specularFactor` 0) the scaling is 1 and the base is
+//!   the plain Lambert lobe.
 //!
 //! Extensions, at one hit (textures already applied):
 //!
@@ -79,7 +81,7 @@
 use super::fresnel::{f0_from_ior, schlick};
 use super::ggx::Ggx;
 use super::glass::Glass;
-use super::lambert::LayeredDiffuse;
+use super::lambert::{Lambert, LayeredDiffuse};
 use super::microfacet::{GgxReflection, Microfacet};
 use super::sheen::Sheen;
 use super::{Bsdf, Frame, Lobe};
@@ -160,7 +162,8 @@ pub(crate) fn build(p: &PbrParams, frame: Frame, ng: Vec3, front_face: bool, com
     let (m, t, r) = (unit(p.metallic), unit(p.transmission), unit(p.roughness));
     let (f0_d, f90_d) = dielectric_fresnel(p);
     let dielectric = GgxReflection::new(r, f0_d, Vec3::splat(f90_d), compensate);
-    let metal = GgxReflection::new(r, base, Vec3::ONE, compensate);
+    // Weighted 0, the metal adds exactly 0 to the mix: it is not built then.
+    let metal = if m > 0.0 { GgxReflection::new(r, base, Vec3::ONE, compensate) } else { dielectric };
     let opaque = (1.0 - m) * (1.0 - t);
 
     let mut b = Bsdf::new(frame, ng, front_face);
@@ -173,7 +176,13 @@ pub(crate) fn build(p: &PbrParams, frame: Frame, ng: Vec3, front_face: bool, com
     }
     let c_diff = base * opaque;
     if c_diff != Vec3::ZERO {
-        b.push(Lobe::LayeredDiffuse(LayeredDiffuse::new(c_diff, dielectric)));
+        // Under a layer that reflects nothing (`specular` 0) the albedo scaling is 1: Lambert,
+        // the same values without the layer's albedo lookups.
+        b.push(if dielectric.is_black() {
+            Lobe::Lambert(Lambert { color: c_diff })
+        } else {
+            Lobe::LayeredDiffuse(LayeredDiffuse::new(c_diff, dielectric))
+        });
     }
     let w_glass = (1.0 - m) * t;
     if w_glass > 0.0 {

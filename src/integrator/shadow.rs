@@ -31,8 +31,8 @@ pub struct ShadowBatch {
 
 impl ShadowBatch {
     /// Traces the shadow rays from `points` (per pixel, its camera ray's shading point, if
-    /// any) that `casts` (whether light reaching a point can leave it towards the viewer)
-    /// towards every light of `lights`, drawing pixel `i`'s light samples from `dims[i]`, and
+    /// any) that `casts` (whether light reaching pixel `i`'s point can leave it towards the
+    /// viewer) towards every light of `lights`, drawing pixel `i`'s light samples from `dims[i]`, and
     /// calls `lit(i, point, incidence)` for every ray that reaches its light: light by light,
     /// and pixel by pixel within a light. Counts the rays in `counts.shadow`.
     #[allow(clippy::too_many_arguments)] // the accel, the lights, the points, and what they add to
@@ -41,14 +41,14 @@ impl ShadowBatch {
         accel: &A,
         lights: &Lights,
         points: &[Option<SurfacePoint>],
-        casts: impl Fn(&SurfacePoint) -> bool,
+        casts: impl Fn(usize, &SurfacePoint) -> bool,
         dims: &mut [D],
         counts: &mut RayCounts,
         mut lit: impl FnMut(usize, &SurfacePoint, &Incidence),
     ) -> Result<(), TraceError> {
         self.origins.clear();
-        self.origins.extend(points.iter().map(|p| match p {
-            Some(sp) if casts(sp) => Some(offset_ray_origin(sp.p, sp.ng)),
+        self.origins.extend(points.iter().enumerate().map(|(i, p)| match p {
+            Some(sp) if casts(i, sp) => Some(offset_ray_origin(sp.p, sp.ng)),
             _ => None,
         }));
         for slot in lights.slots() {

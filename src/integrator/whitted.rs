@@ -95,11 +95,12 @@ pub struct Whitted<'a, A: Accel> {
     pub lights: Lights<'a>,
 }
 
-/// The working memory of one tile's rounds: each camera ray's shading point, and the shadow
-/// rays' batches.
+/// The working memory of one tile's rounds: each camera ray's shading point and its albedo
+/// ([`SurfacePoint::albedo`]), and the shadow rays' batches.
 #[derive(Default)]
 pub struct WhittedScratch {
     points: Vec<Option<SurfacePoint>>,
+    albedos: Vec<Vec3>,
     batch: ShadowBatch,
 }
 
@@ -156,19 +157,23 @@ impl<A: Accel> Integrator for Whitted<'_, A> {
         scratch: &mut WhittedScratch,
         out: &mut [CameraSample],
     ) -> Result<(), TraceError> {
-        let WhittedScratch { points, batch } = scratch;
+        let WhittedScratch { points, albedos, batch } = scratch;
         points.clear();
-        points.extend(
-            rays.iter().zip(hits).zip(out.iter_mut()).map(|((ray, hit), o)| self.shade_emission(ray, hit.as_ref(), o)),
-        );
+        albedos.clear();
+        for ((ray, hit), o) in rays.iter().zip(hits).zip(out.iter_mut()) {
+            let point = self.shade_emission(ray, hit.as_ref(), o);
+            albedos.push(point.map_or(Vec3::ZERO, |(_, albedo)| albedo));
+            points.push(point.map(|(sp, _)| sp));
+        }
         let materials = &self.scene.materials;
-        let casts = |sp: &SurfacePoint| is_lit(sp, &materials[sp.material as usize]);
+        let casts = |i: usize, sp: &SurfacePoint| is_lit(albedos[i], &materials[sp.material as usize]);
         batch.trace(self.accel, &self.lights, points, casts, dims, counts, |i, sp, inc| {
             let o = &mut out[i];
-            add_direct(sp, &materials[sp.material as usize], -rays[i].dir, inc, &mut o.radiance, Some(&mut o.split));
+            let m = &materials[sp.material as usize];
+            add_direct(sp, albedos[i], m, -rays[i].dir, inc, &mut o.radiance, Some(&mut o.split));
         })?;
-        for ((((ray, hit), d), p), o) in
-            rays.iter().zip(hits).zip(dims.iter_mut()).zip(points.iter()).zip(out.iter_mut())
+        for (((((ray, hit), d), p), albedo), o) in
+            rays.iter().zip(hits).zip(dims.iter_mut()).zip(points.iter()).zip(albedos.iter()).zip(out.iter_mut())
         {
             o.first = match (p, hit) {
                 (Some(sp), Some(hit)) => {
@@ -182,7 +187,7 @@ impl<A: Accel> Integrator for Whitted<'_, A> {
                         o.radiance,
                         Some(&mut o.split),
                     )?;
-                    Some(FirstHit::new(sp, hit, colors(sp, &self.scene.materials[sp.material as usize])))
+                    Some(FirstHit::new(sp, hit, colors(*albedo, &self.scene.materials[sp.material as usize])))
                 }
                 _ => None,
             };
@@ -233,9 +238,10 @@ impl<'a, A: Accel> Whitted<'a, A> {
             return Ok((background, Radiance { background, ..Default::default() }, None));
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
-        let first = FirstHit::new(&sp, hit, colors(&sp, &self.scene.materials[sp.material as usize]));
+        let albedo = sp.albedo(self.scene);
+        let first = FirstHit::new(&sp, hit, colors(albedo, &self.scene.materials[sp.material as usize]));
         let mut split = Radiance::default();
-        let radiance = self.shade_split(ray, &sp, 0, Vec3::ONE, dims, counts, Some(&mut split))?;
+        let radiance = self.shade_split(ray, &sp, albedo, 0, Vec3::ONE, dims, counts, Some(&mut split))?;
         Ok((radiance, split, Some(first)))
     }
 
@@ -269,16 +275,17 @@ impl<'a, A: Accel> Whitted<'a, A> {
         dims: &mut SampleDims,
         counts: &mut RayCounts,
     ) -> Result<Vec3, TraceError> {
-        self.shade_split(ray, sp, depth, throughput, dims, counts, None)
+        self.shade_split(ray, sp, sp.albedo(self.scene), depth, throughput, dims, counts, None)
     }
 
-    /// [`Whitted::shade`], also adding each term to `split` when given. The returned radiance
-    /// is summed exactly as without `split`.
+    /// [`Whitted::shade`] of `sp` whose albedo is `albedo`, also adding each term to `split`
+    /// when given. The returned radiance is summed exactly as without `split`.
     #[allow(clippy::too_many_arguments)] // the ray, the hit, the path's state, and what it adds to
     fn shade_split(
         &self,
         ray: &Ray,
         sp: &SurfacePoint,
+        albedo: Vec3,
         depth: u32,
         throughput: Vec3,
         dims: &mut SampleDims,
@@ -286,18 +293,18 @@ impl<'a, A: Accel> Whitted<'a, A> {
         mut split: Option<&mut Radiance>,
     ) -> Result<Vec3, TraceError> {
         let m = &self.scene.materials[sp.material as usize];
-        let mut l = self.emission(sp, split.as_deref_mut());
+        let mut l = self.emission(sp, albedo, split.as_deref_mut());
 
         // Direct light: one shadow ray per point or directional light, `light_samples` per
         // area light (each sample's incidence carries 1/light_samples of the estimate).
-        if is_lit(sp, m) {
+        if is_lit(albedo, m) {
             let origin = offset_ray_origin(sp.p, sp.ng);
             for slot in self.lights.slots() {
                 let Some(inc) = self.lights.incidence(&slot, sp.p, dims) else { continue };
                 let Some(shadow) = shadow_ray(sp, origin, &inc) else { continue };
                 counts.shadow += 1;
                 if !self.accel.occluded(&shadow)? {
-                    add_direct(sp, m, -ray.dir, &inc, &mut l, split.as_deref_mut());
+                    add_direct(sp, albedo, m, -ray.dir, &inc, &mut l, split.as_deref_mut());
                 }
             }
         }
@@ -305,12 +312,12 @@ impl<'a, A: Accel> Whitted<'a, A> {
     }
 
     /// Emission (from the front only, for a one-sided emitter) and ambient: a diffuse surface
-    /// under uniform radiance `L_a` reflects `ρ·L_a`. Sets `split.emission` and, the ambient
-    /// term standing in for indirect diffuse light, `split.indirect.diffuse`.
-    fn emission(&self, sp: &SurfacePoint, split: Option<&mut Radiance>) -> Vec3 {
+    /// of albedo `albedo` under uniform radiance `L_a` reflects `ρ·L_a`. Sets `split.emission`
+    /// and, the ambient term standing in for indirect diffuse light, `split.indirect.diffuse`.
+    fn emission(&self, sp: &SurfacePoint, albedo: Vec3, split: Option<&mut Radiance>) -> Vec3 {
         let m = &self.scene.materials[sp.material as usize];
         let emission = if m.emission_one_sided && !sp.front_face { Vec3::ZERO } else { m.emission };
-        let ambient = sp.albedo * self.scene.image.ambient;
+        let ambient = albedo * self.scene.image.ambient;
         if let Some(split) = split {
             split.emission = emission;
             split.indirect.diffuse = ambient;
@@ -320,8 +327,8 @@ impl<'a, A: Accel> Whitted<'a, A> {
 
     /// A camera ray's shading before its direct light: into `out`, the background when it
     /// hits nothing, else [`Whitted::emission`] (and `out.first` cleared); returns its surface
-    /// point.
-    fn shade_emission(&self, ray: &Ray, hit: Option<&Hit>, out: &mut CameraSample) -> Option<SurfacePoint> {
+    /// point and albedo.
+    fn shade_emission(&self, ray: &Ray, hit: Option<&Hit>, out: &mut CameraSample) -> Option<(SurfacePoint, Vec3)> {
         out.first = None;
         let Some(hit) = hit else {
             let background = self.background(ray.dir);
@@ -330,9 +337,10 @@ impl<'a, A: Accel> Whitted<'a, A> {
             return None;
         };
         let sp = SurfacePoint::new(self.scene, ray, hit);
+        let albedo = sp.albedo(self.scene);
         out.split = Radiance::default();
-        out.radiance = self.emission(&sp, Some(&mut out.split));
-        Some(sp)
+        out.radiance = self.emission(&sp, albedo, Some(&mut out.split));
+        Some((sp, albedo))
     }
 
     /// Reflection and refraction at `sp` (hit by `ray` at recursion depth `depth`), added to
@@ -404,27 +412,36 @@ impl<'a, A: Accel> Whitted<'a, A> {
     }
 }
 
-/// The colours of the lobe families at `sp` (the passes' `…Col`): ρ for the diffuse, `k_s + k_r`
-/// (`+ k_t` for a dielectric, whose Fresnel reflection is glossy) for the glossy and `k_t` for
-/// the transmitting family. Each term of the split is a multiple of its family's colour.
-fn colors(sp: &SurfacePoint, m: &Material) -> BsdfEval {
+/// The colours of the lobe families at a point of albedo `albedo` (the passes' `…Col`): ρ for
+/// the diffuse, `k_s + k_r` (`+ k_t` for a dielectric, whose Fresnel reflection is glossy) for
+/// the glossy and `k_t` for the transmitting family. Each term of the split is a multiple of
+/// its family's colour.
+fn colors(albedo: Vec3, m: &Material) -> BsdfEval {
     let kt = if m.is_dielectric() { m.transmission } else { Vec3::ZERO };
-    BsdfEval { diffuse: sp.albedo, glossy: m.specular + m.mirror + kt, transmission: kt }
+    BsdfEval { diffuse: albedo, glossy: m.specular + m.mirror + kt, transmission: kt }
 }
 
-/// Whether light reaching `sp` can be reflected towards the viewer (a diffuse or specular
-/// term): only then are shadow rays traced.
+/// Whether light reaching a point of albedo `albedo` can be reflected towards the viewer (a
+/// diffuse or specular term): only then are shadow rays traced.
 #[inline]
-fn is_lit(sp: &SurfacePoint, m: &Material) -> bool {
-    sp.albedo != Vec3::ZERO || m.specular != Vec3::ZERO
+fn is_lit(albedo: Vec3, m: &Material) -> bool {
+    albedo != Vec3::ZERO || m.specular != Vec3::ZERO
 }
 
-/// Adds the light of an unoccluded `inc` reflected at `sp` towards `wo` to `l` (and its
-/// diffuse and specular terms to `split`): `(ρ/π + k_s·K(n)·(n·h)^n) · E · cosθ`.
+/// Adds the light of an unoccluded `inc` reflected at `sp` (of albedo `albedo`) towards `wo` to
+/// `l` (and its diffuse and specular terms to `split`): `(ρ/π + k_s·K(n)·(n·h)^n) · E · cosθ`.
 #[inline]
-fn add_direct(sp: &SurfacePoint, m: &Material, wo: Vec3, inc: &Incidence, l: &mut Vec3, split: Option<&mut Radiance>) {
+fn add_direct(
+    sp: &SurfacePoint,
+    albedo: Vec3,
+    m: &Material,
+    wo: Vec3,
+    inc: &Incidence,
+    l: &mut Vec3,
+    split: Option<&mut Radiance>,
+) {
     let cos = sp.ns.dot(inc.to_light);
-    let lambert = optics::lambert(sp.albedo);
+    let lambert = optics::lambert(albedo);
     let mut brdf = lambert;
     let mut highlight = Vec3::ZERO;
     if m.specular != Vec3::ZERO {
