@@ -513,13 +513,16 @@ fn the_farm_button_writes_jobs_whose_frames_are_the_f12_renders() {
 }
 
 /// Blender's progress bar follows strahl's progress lines, which the add-on asks for every
-/// 0.5 s (`--progress-interval`): the values the add-on gives `update_progress` (through its
-/// `set_progress`, which the test's script wraps to record them) rise from below 1 to 1.0 and never fall.
+/// `PROGRESS_INTERVAL` seconds (`--progress-interval`, 0.5 s; 0.1 s here, so that the count of
+/// lines does not hang on how fast the render is): the values the add-on gives
+/// `update_progress` (through its `set_progress`, which the test's script wraps to record them)
+/// rise from below 1 to 1.0 and never fall.
 #[test]
 fn the_progress_bar_moves_and_ends_at_one() {
     let Some(room) = room() else { return };
-    // 64 samples on one thread: several seconds, several progress lines.
-    let expr = "import bpy, strahl_engine.engine as e; bpy.context.scene.strahl.samples = 64\n\
+    // 128 samples on one thread: one to a few seconds, about ten progress lines or more.
+    let expr = "import bpy, strahl_engine.engine as e; bpy.context.scene.strahl.samples = 128\n\
+                e.PROGRESS_INTERVAL = 0.1\n\
                 def record(self, value, set_progress=e.StrahlRenderEngine.set_progress):\n    \
                     print('PROGRESS %r' % value, flush=True)\n    set_progress(self, value)\n\
                 e.StrahlRenderEngine.set_progress = record";
