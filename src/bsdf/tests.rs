@@ -437,3 +437,29 @@ fn appendix_b_matches_independent_reference() {
         );
     }
 }
+
+/// A glTF dielectric whose specular layer reflects nothing (`KHR_materials_specular`'s
+/// `specularFactor` 0, Blender's Specular 0) is Lambertian: `f = baseColor/π` in the diffuse
+/// family, nothing glossy, and cosine-weighted sampling (`pdf = cos θi/π`), at every roughness.
+#[test]
+fn a_black_specular_layer_leaves_a_lambertian_base() {
+    let base = Vec3::new(0.8, 0.5, 0.2);
+    for r in [0.05, 0.5, 1.0] {
+        let b = gltf_up(
+            &PbrParams { base_color: base, metallic: 0.0, roughness: r, specular: 0.0, ..Default::default() },
+            true,
+        );
+        for (mo, mi) in [(1.0, 0.3), (0.7, 0.7), (0.2, 0.9), (0.05, 0.5)] {
+            let (wo, wi) = (dir(mo), Vec3::new(-(1.0f32 - mi * mi).sqrt(), 0.0, mi));
+            let f = b.eval(wo, wi);
+            let want = base / std::f32::consts::PI;
+            assert!(
+                (f.diffuse - want).abs().max_element() <= 1e-6 * want.max_element(),
+                "r {r}, μo {mo}, μi {mi}: {f:?}"
+            );
+            assert_eq!(f.glossy + f.transmission, Vec3::ZERO, "r {r}: {f:?}");
+            let pdf = b.pdf(wo, wi);
+            assert!((pdf - mi / std::f32::consts::PI).abs() <= 1e-6, "r {r}, μo {mo}, μi {mi}: pdf {pdf}");
+        }
+    }
+}
