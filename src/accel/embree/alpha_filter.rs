@@ -7,10 +7,9 @@
 //! Embree calls it with `N` candidate hits in SoA layout (`RTCRayN`, `RTCHitN`); for every
 //! active lane (`valid[i] == -1`) it calls [`AlphaTest::passes`] with the hit's scene-level
 //! geometry id (the instance's, `instID[0]`, for a hit in a prototype) and the ray as strahl
-//! gave it: for a mesh of the top scene its origin and direction as Embree holds them (the bits
-//! strahl gave it), for an instance the query's world-space ray that the lane's `id` indexes
-//! in the [`QueryContext`] (Embree's own copy is in the prototype's space), with the camera
-//! flag from `id` (see [`super::scene`]). It rejects the hit by setting `valid[i] = 0`: Embree
+//! gave it, in world space with its camera flag: the query's ray that the lane's `id` indexes
+//! in the [`QueryContext`] (see [`super::scene`]; Embree's own copy of an instance's ray is in
+//! the prototype's space). It rejects the hit by setting `valid[i] = 0`: Embree
 //! then goes on looking, for the closest hit and for any hit alike. The native BVH calls the
 //! same function on the same values, so both backends accept the same hits.
 //!
@@ -23,24 +22,18 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use super::instance::hit_geom_id;
-use super::scene::{QueryContext, ray_index};
+use super::scene::QueryContext;
 use super::sys;
 use super::user_sphere::panic_message;
-use crate::math::{Ray, Vec3};
 use crate::scene::alpha::AlphaTest;
 
 // Field offsets, in 4-byte words times N: `RTCRayN` (org, tnear, dir, time, tfar, mask, id,
 // flags) and `RTCHitN` (Ng, u, v, primID, geomID, instID[0], ...), the headers' force-inline
 // `RTCRayN_*` / `RTCHitN_*` accessors.
-const ORG_X: usize = 0;
-const DIR_X: usize = 4;
 const ID: usize = 10;
 const PRIM_ID: usize = 5;
 const GEOM_ID: usize = 6;
 const INST_ID: usize = 7;
-
-/// The value of a ray's `id` that marks a camera ray (0 for every other ray).
-pub(super) const CAMERA_RAY_ID: u32 = 1;
 
 /// The filter (module docs).
 ///
@@ -67,23 +60,9 @@ pub(super) unsafe extern "C" fn filter(args: *const sys::RTCFilterFunctionNArgum
             if unsafe { *valid.add(lane) } != -1 {
                 continue;
             }
-            let v = |field: usize| {
-                Vec3::new(
-                    f32::from_bits(word(ray, field, lane)),
-                    f32::from_bits(word(ray, field + 1, lane)),
-                    f32::from_bits(word(ray, field + 2, lane)),
-                )
-            };
-            let id = word(ray, ID, lane);
-            let camera = id & CAMERA_RAY_ID != 0;
-            let inst = word(hit, INST_ID, lane);
-            let r = if inst == sys::RTC_INVALID_GEOMETRY_ID {
-                Ray { camera, ..Ray::new(v(ORG_X), v(DIR_X)) }
-            } else {
-                let world = ctx.ray(ray_index(id)).expect("every query passes its rays in its context");
-                Ray { camera, ..Ray::new(world.org, world.dir) }
-            };
-            if !test.passes(hit_geom_id(word(hit, GEOM_ID, lane), inst), word(hit, PRIM_ID, lane), &r) {
+            let r = ctx.ray(word(ray, ID, lane)).expect("every query passes its rays in its context");
+            let geom = hit_geom_id(word(hit, GEOM_ID, lane), word(hit, INST_ID, lane));
+            if !test.passes(geom, word(hit, PRIM_ID, lane), r) {
                 // SAFETY: `valid` holds `n` entries and Embree lets the filter clear them.
                 unsafe { *valid.add(lane) = 0 };
             }

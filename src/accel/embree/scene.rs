@@ -54,7 +54,8 @@ impl<'a> QueryContext<'a> {
         QueryContext { raw, panic: Cell::new(None), rays, first }
     }
 
-    /// The query's ray with index `index` ([`ray_index`]), as strahl gave it.
+    /// The query's ray with index `index` (the `id` Embree carries for it, [`rtc_ray`]), as
+    /// strahl gave it.
     #[inline]
     pub(super) fn ray(&self, index: u32) -> Option<&Ray> {
         self.rays.get(index.checked_sub(self.first)? as usize)
@@ -380,7 +381,8 @@ impl Drop for Scene {
 /// Embree's ray for a strahl ray. Embree accepts hits with `t ≥ tnear`; strahl's interval is
 /// open (`t > tnear`, the lecture's `t > 0`), so tnear moves up by one ulp.
 ///
-/// The ray's `id` carries its index in the query's rays and its camera flag ([`ray_id`]).
+/// The ray's `id` is its index in the query's rays ([`QueryContext::ray`]), where the alpha
+/// filter finds the ray as strahl gave it (origin, direction, camera flag).
 ///
 /// The ray is assembled as three 16-byte words (origin and tnear, direction and time, tfar and
 /// the three integers), so that it is stored with vector stores: Embree reads it back with
@@ -393,26 +395,13 @@ pub(super) fn rtc_ray(r: &Ray, index: u32) -> sys::RTCRay {
         glam::Vec4::new(r.org.x, r.org.y, r.org.z, open_tnear(r.tnear)),
         glam::Vec4::new(r.dir.x, r.dir.y, r.dir.z, 0.0),
         // tfar, then mask (every bit: a NaN pattern, moved, never computed with), id (the
-        // index and camera flag the alpha filter reads, moved too), flags 0
-        glam::Vec4::new(r.tfar, f32::from_bits(u32::MAX), f32::from_bits(ray_id(r, index)), 0.0),
+        // index the alpha filter reads, moved too), flags 0
+        glam::Vec4::new(r.tfar, f32::from_bits(u32::MAX), f32::from_bits(index), 0.0),
     );
     // SAFETY: `RayWords` and `RTCRay` are both 48 bytes of 4-byte plain-old-data fields in the
     // same order (org_x, org_y, org_z, tnear; dir_x, dir_y, dir_z, time; tfar, mask, id, flags;
     // sizes checked at compile time below), and every bit pattern is valid for both.
     unsafe { std::mem::transmute::<RayWords, sys::RTCRay>(words) }
-}
-
-/// The `id` Embree carries for the ray: its index among the query's rays in the upper 31
-/// bits, its camera flag ([`super::alpha_filter::CAMERA_RAY_ID`]) in the lowest.
-#[inline]
-fn ray_id(r: &Ray, index: u32) -> u32 {
-    (index << 1) | if r.camera { super::alpha_filter::CAMERA_RAY_ID } else { 0 }
-}
-
-/// The index in the query's rays that an Embree ray's `id` carries ([`ray_id`]).
-#[inline]
-pub(super) fn ray_index(id: u32) -> u32 {
-    id >> 1
 }
 
 #[repr(C, align(16))]
@@ -434,7 +423,7 @@ fn set_lane(p: &mut sys::RTCRay8, lane: usize, r: &Ray, index: u32) {
     (p.dir_x[lane], p.dir_y[lane], p.dir_z[lane]) = (r.dir.x, r.dir.y, r.dir.z);
     (p.tnear[lane], p.tfar[lane]) = (open_tnear(r.tnear), r.tfar);
     p.mask[lane] = u32::MAX;
-    p.id[lane] = ray_id(r, index);
+    p.id[lane] = index;
 }
 
 #[inline]
@@ -447,8 +436,8 @@ fn empty_hit() -> sys::RTCHit {
     }
 }
 
-/// Most rays in one query: their indices must fit in the 31 bits of `id` ([`ray_id`]).
-pub(super) const MAX_QUERY_RAYS: usize = (u32::MAX >> 1) as usize;
+/// Most rays in one query: their indices must fit in `id` ([`rtc_ray`]).
+pub(super) const MAX_QUERY_RAYS: usize = u32::MAX as usize;
 
 /// Rays per packet query.
 pub const PACKET_WIDTH: usize = 8;
