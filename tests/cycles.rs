@@ -309,28 +309,13 @@ fn a_rough_dielectric_sphere_under_a_white_world_matches_each_renderers_model() 
             })
             .collect()
     };
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/blender/render_gltf.py");
     for (name, strahl_model, cycles_model) in EXPECTED {
         let gltf = assets.join(format!("{name}.gltf"));
         let env = ["--integrator", "path", "--environment", "1,1,1"];
         let strahl_exr = render(&dir, &gltf, &format!("{name}.exr"), N, SPP, &env);
+        let view = ["0", "0", "50", "0", "0", "0", "2.4"].map(String::from);
         let out_dir = dir.path(&format!("cycles-{name}"));
-        let out = Command::new("blender")
-            .args(["-b", "--factory-startup", "--python"])
-            .arg(&script)
-            .arg("--")
-            .arg(&gltf)
-            .arg(&out_dir)
-            .args([N.to_string(), SPP.to_string(), DEPTH.to_string()])
-            .args(["0", "0", "50", "0", "0", "0", "2.4"])
-            .output()
-            .expect("blender runs");
-        let cycles_exr = out_dir.join("cycles.exr");
-        assert!(
-            out.status.success() && cycles_exr.exists(),
-            "blender failed:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let cycles_exr = common::cycles_render_gltf(&gltf, &out_dir, (N, SPP, DEPTH), &view, &[]);
         let (s, c) = (band_means(&strahl_exr, STRAHL_LAYER), band_means(&cycles_exr, ""));
         for (k, &(lo, hi)) in BANDS.iter().enumerate() {
             for ch in 0..3 {

@@ -372,11 +372,17 @@ fn instanced_mask_and_one_sided_meshes_render_as_their_flattened_copies() {
     let Some(assets) = assets(&dir) else { return };
     for backend in ["embree", "native"] {
         let args = ["--backend", backend, "--integrator", "path", "--passes", "combined,disagreement"];
-        let mask = assets.join("mask_lit.gltf");
-        let (flat, _) = render(&dir, &flattened_twice(&mask, false), &args);
-        let (toml, _) = render(&dir, &instanced_twice(&mask, false), &args);
-        let (gltf, _) = render(&dir, &in_front_of_backdrop(&assets.join("mask_twice.gltf"), "", false, 4), &args);
-        for (what, channels) in [("flattened", &flat), ("TOML instance", &toml), ("two glTF nodes", &gltf)] {
+        // The quad of `name`_lit.gltf placed twice: flattened, by a TOML instance, by two nodes.
+        let placements = |name: &str, behind: bool| {
+            let lit = assets.join(format!("{name}_lit.gltf"));
+            let twice = assets.join(format!("{name}_twice.gltf"));
+            let (flat, _) = render(&dir, &flattened_twice(&lit, behind), &args);
+            let (toml, _) = render(&dir, &instanced_twice(&lit, behind), &args);
+            let (gltf, _) = render(&dir, &in_front_of_backdrop(&twice, "", behind, 4), &args);
+            [("flattened", flat), ("TOML instance", toml), ("two glTF nodes", gltf)]
+        };
+        let rendered = placements("mask", false);
+        for (what, channels) in &rendered {
             for k in 0..2 {
                 for (x, y) in [(-0.5, 0.5), (0.5, 0.5), (-0.5, -0.5), (0.5, -0.5)] {
                     let want = if mask_is_there(x, y) { GREEN } else { RED };
@@ -390,14 +396,10 @@ fn instanced_mask_and_one_sided_meshes_render_as_their_flattened_copies() {
             }
             assert_eq!(disagreements(channels), 0, "{backend}, {what}: the backends' first hits differ");
         }
-        assert!(combined(&toml) == combined(&flat), "{backend}: the TOML instances differ from the flattened copies");
-        assert!(combined(&gltf) == combined(&flat), "{backend}: the glTF instances differ from the flattened copies");
+        same_as_flattened(backend, &rendered);
         // Seen from behind, the one-sided quads show the backdrop, instanced or not.
-        let one_sided = assets.join("one_sided_lit.gltf");
-        let (flat, _) = render(&dir, &flattened_twice(&one_sided, true), &args);
-        let (toml, _) = render(&dir, &instanced_twice(&one_sided, true), &args);
-        let (gltf, _) = render(&dir, &in_front_of_backdrop(&assets.join("one_sided_twice.gltf"), "", true, 4), &args);
-        for (what, channels) in [("flattened", &flat), ("TOML instance", &toml), ("two glTF nodes", &gltf)] {
+        let rendered = placements("one_sided", true);
+        for (what, channels) in &rendered {
             for k in 0..2 {
                 // Seen from −z the image's x runs the other way.
                 let (wx, wy) = placed(k, 0.3, 0.3);
@@ -405,7 +407,14 @@ fn instanced_mask_and_one_sided_meshes_render_as_their_flattened_copies() {
                 assert!(close(got, RED, 1e-6), "{backend}, {what}, placement {k}: the back face shows {got:?}");
             }
         }
-        assert!(combined(&toml) == combined(&flat), "{backend}: the one-sided TOML instances differ");
-        assert!(combined(&gltf) == combined(&flat), "{backend}: the one-sided glTF instances differ");
+        same_as_flattened(backend, &rendered);
+    }
+}
+
+/// The instanced renders' Combined channels bit for bit those of the flattened copies (first).
+fn same_as_flattened(backend: &str, rendered: &[(&str, Channels)]) {
+    let flat = combined(&rendered[0].1);
+    for (what, channels) in &rendered[1..] {
+        assert!(combined(channels) == flat, "{backend}: the {what} placements differ from the flattened copies");
     }
 }

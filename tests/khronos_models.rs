@@ -37,7 +37,6 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use common::{TempDir, channel, read_exr, strahl};
 use glam::{Mat3, Quat, Vec3};
@@ -168,33 +167,14 @@ fn cycles_of(
     if !common::blender_installed("the Khronos models are not compared with Cycles") {
         return None;
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/blender/render_gltf.py");
-    let out_dir = dir.path(out);
     let environment = match world {
         World::White => None,
         World::Map(path) => Some(format!("environment={}", path.display())),
     };
     let numbers = [view.eye.to_vec(), view.target.to_vec(), vec![view.yfov_deg]].concat();
-    let out = Command::new("blender")
-        .args(["-b", "--factory-startup", "--python"])
-        .arg(&script)
-        .arg("--")
-        .arg(src)
-        .arg(&out_dir)
-        .args([SIZE.to_string(), spp.to_string(), "8".into()])
-        .args(numbers.iter().map(|x| x.to_string()))
-        .args(flags)
-        .args(environment)
-        .output()
-        .expect("blender runs");
-    let exr = out_dir.join("cycles.exr");
-    assert!(
-        out.status.success() && exr.exists(),
-        "blender failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some(exr)
+    let view: Vec<String> = numbers.iter().map(|x| x.to_string()).collect();
+    let flags: Vec<String> = flags.iter().map(|f| f.to_string()).chain(environment).collect();
+    Some(common::cycles_render_gltf(src, &dir.path(out), (SIZE, spp, 8), &view, &flags))
 }
 
 /// The R, G, B planes of `path` (`prefix` + R, …).

@@ -204,6 +204,39 @@ pub fn blender_installed(then: &str) -> bool {
     false
 }
 
+/// Cycles' render of the glTF file `src` by Blender's importer (tools/blender/render_gltf.py,
+/// headless): `size`² pixels, `spp` samples, `depth` scatterings, the camera at `view` (eye,
+/// target, vertical field of view in degrees, as the script's arguments) and the script's
+/// `flags`; returns `out_dir/cycles.exr`. Call after [`blender_installed`].
+pub fn cycles_render_gltf(
+    src: &Path,
+    out_dir: &Path,
+    (size, spp, depth): (usize, u32, u32),
+    view: &[String],
+    flags: &[String],
+) -> PathBuf {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/blender/render_gltf.py");
+    let out = Command::new("blender")
+        .args(["-b", "--factory-startup", "--python"])
+        .arg(&script)
+        .arg("--")
+        .arg(src)
+        .arg(out_dir)
+        .args([size.to_string(), spp.to_string(), depth.to_string()])
+        .args(view)
+        .args(flags)
+        .output()
+        .expect("blender runs");
+    let exr = out_dir.join("cycles.exr");
+    assert!(
+        out.status.success() && exr.exists(),
+        "blender failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    exr
+}
+
 /// Runs the asset script `tools/gltf/SCRIPT` (pygltflib, not strahl's code) into
 /// `dir/assets`; returns that folder, or `None` (with a skip line naming `test`) when python3
 /// or its pygltflib is missing. A script that fails otherwise fails the test.
