@@ -403,6 +403,11 @@ pub struct Pbr {
     /// ([`crate::normal_map`]), its `x` and `y` multiplied by `normal_scale`.
     pub normal_texture: Option<TextureSlot>,
     pub normal_scale: f32,
+    /// `KHR_materials_clearcoat`'s `clearcoatNormalTexture` (linear) and its `scale`: the
+    /// coat's own normal, mapped as `normalTexture` maps the base's. Without it the coat
+    /// takes the surface's normal before normal mapping ([`crate::surface::SurfacePoint::n_coat`]).
+    pub clearcoat_normal_texture: Option<TextureSlot>,
+    pub clearcoat_normal_scale: f32,
     /// `KHR_materials_volume`: `thicknessFactor` (0: thin-walled, no volume),
     /// `attenuationColor` and `attenuationDistance` (infinite: no absorption).
     pub thickness: f32,
@@ -425,6 +430,8 @@ impl Default for Pbr {
             emissive_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
             thickness: 0.0,
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
@@ -436,13 +443,14 @@ impl Default for Pbr {
 
 impl Pbr {
     /// The texture slots, in a fixed order: base colour, metallic-roughness, emissive, normal,
-    /// then the extensions' ([`ExtensionTextures`]).
+    /// clearcoat normal, then the extensions' ([`ExtensionTextures`]).
     pub fn slots(&self) -> impl Iterator<Item = &TextureSlot> {
         [
             self.base_color_texture.as_ref(),
             self.metallic_roughness_texture.as_ref(),
             self.emissive_texture.as_ref(),
             self.normal_texture.as_ref(),
+            self.clearcoat_normal_texture.as_ref(),
         ]
         .into_iter()
         .chain(self.extension_textures.slots())
@@ -455,6 +463,7 @@ impl Pbr {
             self.metallic_roughness_texture.as_mut(),
             self.emissive_texture.as_mut(),
             self.normal_texture.as_mut(),
+            self.clearcoat_normal_texture.as_mut(),
         ]
         .into_iter()
         .chain(self.extension_textures.slots_mut())
@@ -467,6 +476,7 @@ impl Pbr {
     }
 
     /// What `bsdf::gltf` takes at a hit with texture coordinates `uv` and vertex colour `color`.
+    #[inline]
     pub fn params_at(&self, uv: impl Into<TexCoords>, color: Vec3) -> PbrParams {
         let uv = uv.into();
         let mr = TextureSlot::or_one(&self.metallic_roughness_texture, uv);
@@ -477,6 +487,18 @@ impl Pbr {
             ..self.factors
         };
         self.extension_textures.apply(factors, uv)
+    }
+
+    /// Whether the clearcoat layer may have a normal other than the shading normal: a coat,
+    /// and a normal map on it or on the base (which the coat then does not follow).
+    pub fn coat_has_own_normal(&self) -> bool {
+        self.factors.clearcoat > 0.0 && (self.normal_texture.is_some() || self.clearcoat_normal_texture.is_some())
+    }
+
+    /// The texture coordinate set the mesh's tangents serve (`TANGENT`, or MikkTSpace's from
+    /// that set): `normalTexture`'s, else `clearcoatNormalTexture`'s; `None` without either.
+    pub fn tangent_set(&self) -> Option<u32> {
+        self.normal_texture.as_ref().or(self.clearcoat_normal_texture.as_ref()).map(|t| t.tex_coord.min(1))
     }
 
     /// The emitted radiance at a hit: `emission × emissiveTexture(uv)`.
@@ -570,6 +592,10 @@ impl Pbr {
             .or_else(|| bad_colour("attenuation colour", self.attenuation_color))
             .or_else(|| {
                 (!self.normal_scale.is_finite()).then(|| format!("normal scale {} must be finite", self.normal_scale))
+            })
+            .or_else(|| {
+                (!self.clearcoat_normal_scale.is_finite())
+                    .then(|| format!("clearcoat normal scale {} must be finite", self.clearcoat_normal_scale))
             })
             .or_else(|| {
                 (!(self.attenuation_distance > 0.0))

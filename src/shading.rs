@@ -85,7 +85,7 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32) -> S
         return Shading { bsdf, emission: base, volume: None };
     }
     let params = pbr.params_at(coords, sp.color);
-    let bsdf = bsdf::gltf(&params, frame, sp.ng, sp.front_face);
+    let bsdf = bsdf::gltf(&params, frame, sp.n_coat, sp.ng, sp.front_face);
     let emission = if one_sided_back { Vec3::ZERO } else { pbr.emission_at(coords) };
     let volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
     Shading { bsdf, emission, volume }

@@ -30,10 +30,12 @@
 //! mapped normal ([`crate::normal_map`]: the interpolated normal perturbed in its tangent
 //! frame, then flipped with `ng`), kept so that the viewer's mirror direction leaves the
 //! geometric surface (Cycles' rule, [`normal_map::valid_reflection`]). Every integrator, and
-//! the `normal` pass, see that normal.
+//! the `normal` pass, see that normal. A clearcoat has its own normal (`n_coat`): its
+//! `clearcoatNormalTexture` mapped the same way, or else the normal before mapping.
 
 use crate::accel::Hit;
 use crate::geometry::triangle;
+use crate::material::TextureSlot;
 use crate::math::{Ray, Vec2, Vec3, Vec4};
 use crate::normal_map;
 use crate::scene::{GeomKind, Scene};
@@ -49,6 +51,11 @@ pub struct SurfacePoint {
     pub ng: Vec3,
     /// Unit shading normal, on the same side as `ng` and facing the viewer.
     pub ns: Vec3,
+    /// The clearcoat layer's unit normal (`KHR_materials_clearcoat`), on `ns`'s side: mapped
+    /// by the material's `clearcoatNormalTexture`, or without one the interpolated normal
+    /// before normal mapping, as the extension asks; `ns` itself where the coat cannot differ
+    /// from it ([`crate::material::Pbr::coat_has_own_normal`]).
+    pub n_coat: Vec3,
     /// Whether the ray arrived on the side `ng_outward` points to, i.e. enters the object.
     pub front_face: bool,
     /// Index into `Scene::materials`.
@@ -138,15 +145,17 @@ impl SurfacePoint {
         let ng_outward = if ng_outward == Vec3::ZERO { -ray.dir.normalize() } else { ng_outward };
         let ns = if ns == Vec3::ZERO { ng_outward } else { ns };
         let ns = if ns.dot(ng_outward) < 0.0 { -ns } else { ns };
-        let mapped = mapped_normal(scene, material, ns, tangent, uv);
+        let (mapped, coat) =
+            if tangent == Vec4::ZERO { (None, None) } else { mapped_normals(scene, material, ns, tangent, uv) };
         let front_face = ray.dir.dot(ng_outward) < 0.0;
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
-        let ns = match mapped {
-            Some(n) => normal_map::valid_reflection(ng, -ray.dir.normalize(), if front_face { n } else { -n }),
-            None if ns.dot(ray.dir) >= 0.0 => ng,
-            None => ns,
+        let shading = facing(mapped, ns, ng, ray.dir, front_face);
+        let n_coat = match coat {
+            None => shading,
+            Some(mapped) => facing(mapped, ns, ng, ray.dir, front_face),
         };
-        SurfacePoint { p, ng_outward, ng, ns, front_face, material, uv, color: colour, t, uv_density }
+        let ns = shading;
+        SurfacePoint { p, ng_outward, ng, ns, n_coat, front_face, material, uv, color: colour, t, uv_density }
     }
 
     /// The diffuse albedo ρ here: the material's diffuse texture (a PBR material's lecture
@@ -161,16 +170,47 @@ impl SurfacePoint {
 /// Both texture coordinate sets at a hit and their densities ([`SurfacePoint::uv_density`]).
 type Uvs = ([Vec2; 2], [f32; 2]);
 
-/// The normal-mapped shading normal at a point of `material` whose interpolated normal
-/// (on the outward side) is `n`, tangent `tangent` and texture coordinates `uv`, if the
-/// material has a normal map and the point a tangent ([`crate::normal_map`]).
-fn mapped_normal(scene: &Scene, material: u32, n: Vec3, tangent: Vec4, uv: [Vec2; 2]) -> Option<Vec3> {
-    if tangent == Vec4::ZERO {
-        return None;
+/// The normal a shading frame takes at a hit seen along `dir`, given the normal map's normal
+/// `mapped` (outward; `None` without one), the interpolated normal `ns` and the geometric
+/// normal `ng` (both already on the viewer's side), and whether the hit is on the front
+/// (module docs: a mapped normal kept so that the mirror direction leaves the surface, an
+/// interpolated one replaced by `ng` where it faces away).
+#[inline]
+fn facing(mapped: Option<Vec3>, ns: Vec3, ng: Vec3, dir: Vec3, front_face: bool) -> Vec3 {
+    match mapped {
+        Some(n) => normal_map::valid_reflection(ng, -dir.normalize(), if front_face { n } else { -n }),
+        None if ns.dot(dir) >= 0.0 => ng,
+        None => ns,
     }
-    let pbr = scene.materials[material as usize].pbr.as_deref()?;
-    let slot = pbr.normal_texture.as_ref()?;
-    normal_map::perturb(n, tangent, normal_map::tangent_space_normal(slot.at(uv), pbr.normal_scale))
+}
+
+/// The normal-mapped normals at a point of `material` whose interpolated normal (on the
+/// outward side) is `n`, tangent `tangent` (not zero) and texture coordinates `uv`: the
+/// shading normal, if the material has a `normalTexture`, and the coat's, if it has a coat
+/// with a normal of its own ([`crate::material::Pbr::coat_has_own_normal`]): `Some` of its
+/// `clearcoatNormalTexture`'s normal, or of `None` (the normal before mapping). Out of line:
+/// most hits have no tangent and skip it.
+#[inline(never)]
+fn mapped_normals(
+    scene: &Scene,
+    material: u32,
+    n: Vec3,
+    tangent: Vec4,
+    uv: [Vec2; 2],
+) -> (Option<Vec3>, Option<Option<Vec3>>) {
+    let Some(m) = scene.materials[material as usize].pbr.as_deref() else { return (None, None) };
+    let mapped = mapped_normal(m.normal_texture.as_ref(), m.normal_scale, n, tangent, uv);
+    let coat = m
+        .coat_has_own_normal()
+        .then(|| mapped_normal(m.clearcoat_normal_texture.as_ref(), m.clearcoat_normal_scale, n, tangent, uv));
+    (mapped, coat)
+}
+
+/// The normal that the normal map `slot` (with its `scale`) gives a point whose interpolated
+/// normal (on the outward side) is `n`, tangent `tangent` (not zero) and texture coordinates
+/// `uv`, if there is a map and the tangent gives a frame ([`crate::normal_map`]).
+fn mapped_normal(slot: Option<&TextureSlot>, scale: f32, n: Vec3, tangent: Vec4, uv: [Vec2; 2]) -> Option<Vec3> {
+    normal_map::perturb(n, tangent, normal_map::tangent_space_normal(slot?.at(uv), scale))
 }
 
 /// Point, unit geometric normal, shading normal, colour, texture coordinates, `t` and

@@ -190,21 +190,21 @@ fn the_thickness_texture_is_left_to_rasterisers() {
 }
 
 /// Textures that name one image in one encoding share its decoded copy: the two alpha-channel
-/// textures one plane, the two linear ones another. The coat's own normal map is named in a
-/// warning (the BSDF has one shading frame for all its layers).
+/// textures one plane, the three linear ones (the coat's normal map among them) another.
 #[test]
 fn textures_of_one_image_share_its_decoded_copy() {
     let dir = TempDir::new("ext-tex-shared");
     let Some(assets) = assets(&dir) else { return };
     let loaded = strahl::scene::from_gltf_file(&assets.join("shared.gltf"), None).unwrap();
-    let warning = "KHR_materials_clearcoat: clearcoatNormalTexture ignored (the coat uses the base layer's normal)";
-    assert!(loaded.warnings.iter().any(|w| w.contains(warning)), "{:?}", loaded.warnings);
+    assert!(loaded.warnings.iter().all(|w| !w.contains("clearcoatNormalTexture")), "{:?}", loaded.warnings);
     let scene = loaded.scene;
     let pbr = scene.materials.iter().find_map(|m| m.pbr.as_deref()).unwrap();
     let t = &pbr.extension_textures;
     let image = |slot: &Option<strahl::material::TextureSlot>| slot.as_ref().expect("a texture").texture.image.clone();
     assert!(Arc::ptr_eq(&image(&t.specular), &image(&t.sheen_roughness)));
     assert!(Arc::ptr_eq(&image(&t.clearcoat), &image(&t.clearcoat_roughness)));
+    assert!(Arc::ptr_eq(&image(&t.clearcoat), &image(&pbr.clearcoat_normal_texture)));
+    assert_eq!(pbr.clearcoat_normal_scale, 1.0);
     assert!(!Arc::ptr_eq(&image(&t.specular), &image(&t.clearcoat)));
     // The alpha plane holds α (40 and 80 of 255), the linear one the bytes as they are.
     let uv = glam::Vec2::new(0.25, 0.5);

@@ -815,6 +815,149 @@ fn transmission_test_agrees_with_cycles() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// ClearCoatTest: rows of three samples (domes 2 across, 2.1 apart): the base layer alone (left),
+// base and coat (middle), the coat alone over black (right). The model's rule: the middle
+// sample is the sum of the other two, as a coat adds its reflection to what it lets through.
+// Rows BaseNormals (y −1.05), SharedNormals (−3.15) and CoatNormals (−5.25) give the base, both,
+// or only the coat a normal map, and KHR_materials_clearcoat says the coat follows only its
+// own: a coat without a `clearcoatNormalTexture` is smooth over a bumpy base.
+
+const CCT: &str = "ClearCoatTest";
+
+/// A copy of ClearCoatTest (edited by `edit`) with a square orthographic camera looking down
+/// −z at the three rows with normal maps: 6.72 wide, so that the samples' centres fall on pixel
+/// edges 40 pixels apart (x, y ∈ {24, 64, 104}), and each sample's image is its neighbour's
+/// moved by whole pixels.
+fn cct_rows(dir: &TempDir, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(model(CCT)).unwrap()).unwrap();
+    edit(&mut doc);
+    for item in doc["buffers"].as_array().into_iter().chain(doc["images"].as_array()).flatten() {
+        let uri = item["uri"].as_str().unwrap();
+        std::fs::copy(model(CCT).with_file_name(uri), dir.path(uri)).unwrap();
+    }
+    let half = 2.1 * SIZE as f64 / 2.0 / 40.0;
+    let cameras = doc.as_object_mut().unwrap().entry("cameras").or_insert(serde_json::json!([]));
+    cameras.as_array_mut().unwrap().push(serde_json::json!({
+        "name": CAMERA,
+        "type": "orthographic",
+        "orthographic": {"xmag": half, "ymag": half, "znear": 0.01, "zfar": 100.0}
+    }));
+    let camera = cameras.as_array().unwrap().len() - 1;
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({"camera": camera, "translation": [0.0, -3.15, 10.0]}));
+    let node = nodes.len() - 1;
+    doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(node.into());
+    dir.write("scene.gltf", serde_json::to_vec(&doc).unwrap())
+}
+
+/// The middle column's samples of the rows BaseNormals, SharedNormals and CoatNormals (the
+/// inner 15 of their 19 pixels of radius), R + G + B.
+fn cct_middles(img: &[Vec<f32>; 3]) -> [Vec<f64>; 3] {
+    std::array::from_fn(|row| {
+        let cy = 24 + 40 * row as i64;
+        let mut out = vec![];
+        for dy in -15i64..15 {
+            for dx in -15i64..15 {
+                if ((dx as f64 + 0.5).powi(2) + (dy as f64 + 0.5).powi(2)).sqrt() <= 15.0 {
+                    let i = (cy + dy) as usize * SIZE + (64 + dx) as usize;
+                    out.push((0..3).map(|c| img[c][i] as f64).sum());
+                }
+            }
+        }
+        out
+    })
+}
+
+/// How far `coated` is from `coat` plus `s·base` (`s` fitted by least squares: the base's share
+/// under the coat), as a fraction of `coat`'s own variation about its mean.
+fn cct_residual(coated: &[f64], coat: &[f64], base: &[f64]) -> f64 {
+    let rest: Vec<f64> = coated.iter().zip(coat).map(|(a, b)| a - b).collect();
+    let b2 = base.iter().map(|b| b * b).sum::<f64>();
+    let s = if b2 > 0.0 { rest.iter().zip(base).map(|(r, b)| r * b).sum::<f64>() / b2 } else { 0.0 };
+    let residual = rest.iter().zip(base).map(|(r, b)| (r - s * b).powi(2)).sum::<f64>();
+    let mean = coat.iter().sum::<f64>() / coat.len() as f64;
+    (residual / coat.iter().map(|c| (c - mean).powi(2)).sum::<f64>()).sqrt()
+}
+
+/// ClearCoatTest's JSON edited: `middle` (when given: "CoatOnly" or "BaseLayer") puts that
+/// sample's mesh in the middle column of every row, so that it is seen where the coated sample
+/// is, among the same neighbours and through the same pixels; `wrong` gives each coat the
+/// other normal (the base's normal map in BaseNormals, none in CoatNormals: what a coat that
+/// followed the base's shading normal would have); `bare` makes the coated samples' bases black
+/// without a specular layer, so that each is its coat alone: the coat-only sample's material.
+fn cct_edit(doc: &mut serde_json::Value, middle: Option<&str>, wrong: bool, bare: bool) {
+    if let Some(sample) = middle {
+        let nodes = doc["nodes"].as_array_mut().unwrap();
+        // Rows 1 … 5 name their samples `R{row}_…`, the first leaves the prefix out.
+        let name =
+            |r: usize, sample: &str| if r == 0 { format!("{sample}Sample") } else { format!("R{r}_{sample}Sample") };
+        let node = |nodes: &[serde_json::Value], name: &str| nodes.iter().position(|n| n["name"] == name).unwrap();
+        for r in 0..6 {
+            let mesh = nodes[node(nodes, &name(r, sample))]["mesh"].clone();
+            let coated = node(nodes, &name(r, "ClearCoat"));
+            nodes[coated]["mesh"] = mesh;
+        }
+    }
+    if bare {
+        doc["extensionsUsed"].as_array_mut().unwrap().push("KHR_materials_specular".into());
+    }
+    for m in doc["materials"].as_array_mut().unwrap() {
+        let name = m["name"].as_str().unwrap().to_string();
+        if wrong {
+            let base_normal = m["normalTexture"].clone();
+            let coat = &mut m["extensions"]["KHR_materials_clearcoat"];
+            if name == "BaseNorm_Coated" {
+                coat["clearcoatNormalTexture"] = base_normal;
+            } else if name == "CoatNorm_Coated" {
+                coat.as_object_mut().unwrap().remove("clearcoatNormalTexture");
+            }
+        }
+        if bare && name.ends_with("_Coated") {
+            m["pbrMetallicRoughness"]["baseColorFactor"] = serde_json::json!([0.0, 0.0, 0.0, 1.0]);
+            m["extensions"]["KHR_materials_specular"] = serde_json::json!({"specularFactor": 0.0});
+        }
+    }
+}
+
+#[test]
+fn clear_coat_test_coats_follow_their_own_normals() {
+    let dir = TempDir::new("khronos-cct");
+    let map = lobes_map(&dir);
+    let middles = |name: &str, middle: Option<&str>, wrong: bool, bare: bool| {
+        let dir = TempDir::new(&format!("khronos-cct-{name}"));
+        let gltf = cct_rows(&dir, |doc| cct_edit(doc, middle, wrong, bare));
+        let exr = render(&dir, &gltf, "strahl.exr", World::Map(&map), 64, &["--integrator", "path"]);
+        cct_middles(&rgb(&exr, "ViewLayer.Combined."))
+    };
+    let coat = middles("coat", Some("CoatOnly"), false, false);
+    let base = middles("base", Some("BaseLayer"), false, false);
+    let coated = middles("coated", None, false, false);
+    let coated_wrong = middles("coated-wrong", None, true, false);
+    let bare = middles("bare", None, false, true);
+    let bare_wrong = middles("bare-wrong", None, true, true);
+    let black = vec![0.0; coat[0].len()];
+    let mut r = [[0.0; 3]; 4];
+    for (k, row) in ["BaseNormals", "SharedNormals", "CoatNormals"].iter().enumerate() {
+        r[0][k] = cct_residual(&coated[k], &coat[k], &base[k]);
+        r[1][k] = cct_residual(&coated_wrong[k], &coat[k], &base[k]);
+        r[2][k] = cct_residual(&bare[k], &coat[k], &black);
+        r[3][k] = cct_residual(&bare_wrong[k], &coat[k], &black);
+        eprintln!(
+            "ClearCoatTest {row}: coated − (coat + s·base), relative to the coat's variation: {:.3} \
+             (each coat given the other normal: {:.3}); bases black: {:.4} ({:.3})",
+            r[0][k], r[1][k], r[2][k], r[3][k]
+        );
+    }
+    for k in 0..3 {
+        assert!(r[2][k] < 0.01, "a bare coated sample is not its coat-only neighbour's material: {:?}", r[2]);
+        assert!(r[0][k] < 0.8, "the coated sample is not its coat plus its base: {:?}", r[0]);
+    }
+    for k in [0, 2] {
+        assert!(r[3][k] > 0.5 && r[1][k] > 2.5 * r[0][k], "the check does not tell the coats' normals apart: {r:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // DamagedHelmet: not shipped (tests/data/khronos/README.md: 3.8 MB, and in part CC BY-NC); read
 // from a checkout of glTF-Sample-Assets (or glTF-Sample-Models) named by STRAHL_KHRONOS_SAMPLES.
 

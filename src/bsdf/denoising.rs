@@ -60,14 +60,14 @@ impl Bsdf {
             out.here = true;
             return out;
         }
-        let scales = self.scales(lo.z, lo.z);
+        let scales = self.scales_at(lo, lo);
         let (mut total, mut diffuse_weight) = (0.0, 0.0);
         let (mut reflect, mut transmit) = (Vec3::ZERO, Vec3::ZERO);
         let mut refracted = None;
         for (k, lobe) in self.lobes().iter().enumerate() {
             out.has_lobes = true;
             let scale = scales[self.under[k] as usize];
-            let albedo = lobe.albedo(lo.z) * scale;
+            let albedo = lobe.albedo_from(lo) * scale;
             let weight = albedo.element_sum() / 3.0;
             total += weight;
             if !lobe.specular_like() {

@@ -39,8 +39,10 @@
 //!   `min(1 − max(C) E(μo), 1 − max(C) E(μi))` (the extension's own albedo scaling).
 //! * `KHR_materials_clearcoat`: a GGX layer (`F₀ = 0.04`, `α = clearcoatRoughness²`, weight
 //!   `clearcoat`, compensated like the specular layer) on top of everything, the rest scaled by
-//!   `min(1 − A_c(μo), 1 − A_c(μi))` with `A_c` the coat's albedo. The coat uses the shading
-//!   normal (a separate `clearcoatNormal` is not modelled).
+//!   `min(1 − A_c(μo), 1 − A_c(μi))` with `A_c` the coat's albedo. The coat has its own normal
+//!   (`coat_normal`: its `clearcoatNormalTexture`, or the normal before the base's normal
+//!   map, [`crate::surface::SurfacePoint::n_coat`]); where that is not the shading normal the
+//!   coat is a [`super::microfacet::Tilted`] lobe and `μ` in `A_c` is taken about it.
 //!
 //! **White furnace** (`white_furnace` in `tests.rs`, printed with `--nocapture`): `∫ f |cos θi| dωi`
 //! for base colour 1, estimated with 2¹⁹ of the BSDF's own samples (standard error ≤ 0.0007),
@@ -82,7 +84,7 @@ use super::fresnel::{f0_from_ior, schlick};
 use super::ggx::Ggx;
 use super::glass::Glass;
 use super::lambert::{Lambert, LayeredDiffuse};
-use super::microfacet::{GgxReflection, Microfacet};
+use super::microfacet::{GgxReflection, Microfacet, Tilted};
 use super::sheen::Sheen;
 use super::{Bsdf, Frame, Lobe};
 use crate::math::Vec3;
@@ -148,16 +150,24 @@ fn dielectric_fresnel(p: &PbrParams) -> (Vec3, f32) {
     (f0, specular)
 }
 
-/// The glTF BSDF at a hit: `frame` around the shading normal (facing `wo`), `ng` the geometric
-/// normal (facing `wo`), `front_face` whether the hit was from outside. Parameters out of their
-/// ranges are clamped into them.
-pub fn gltf(p: &PbrParams, frame: Frame, ng: Vec3, front_face: bool) -> Bsdf {
-    build(p, frame, ng, front_face, true)
+/// The glTF BSDF at a hit: `frame` around the shading normal (facing `wo`), `coat_normal` the
+/// clearcoat's unit normal (facing `wo`; `frame.n` where the coat follows the shading normal),
+/// `ng` the geometric normal (facing `wo`), `front_face` whether the hit was from outside.
+/// Parameters out of their ranges are clamped into them.
+pub fn gltf(p: &PbrParams, frame: Frame, coat_normal: Vec3, ng: Vec3, front_face: bool) -> Bsdf {
+    build(p, frame, coat_normal, ng, front_face, true)
 }
 
 /// [`gltf`] with or without the multiple-scattering compensation (the furnace figures show
 /// what single scattering loses).
-pub(crate) fn build(p: &PbrParams, frame: Frame, ng: Vec3, front_face: bool, compensate: bool) -> Bsdf {
+pub(crate) fn build(
+    p: &PbrParams,
+    frame: Frame,
+    coat_normal: Vec3,
+    ng: Vec3,
+    front_face: bool,
+    compensate: bool,
+) -> Bsdf {
     let base = unit3(p.base_color);
     let (m, t, r) = (unit(p.metallic), unit(p.transmission), unit(p.roughness));
     let (f0_d, f90_d) = dielectric_fresnel(p);
@@ -199,7 +209,13 @@ pub(crate) fn build(p: &PbrParams, frame: Frame, ng: Vec3, front_face: bool, com
     let cc = unit(p.clearcoat);
     if cc > 0.0 {
         let layer = GgxReflection::new(unit(p.clearcoat_roughness), Vec3::splat(0.04), Vec3::ONE, compensate);
-        let k = b.push(Lobe::Microfacet(Microfacet { weight: Vec3::splat(cc), layer }));
+        let coat = Microfacet { weight: Vec3::splat(cc), layer };
+        let n = frame.to_local(coat_normal).normalize_or_zero();
+        let k = b.push(if coat_normal == frame.n || n == Vec3::ZERO {
+            Lobe::Microfacet(coat)
+        } else {
+            Lobe::Tilted(Tilted::new(coat, n))
+        });
         b.layer_over(k, false);
     }
     b

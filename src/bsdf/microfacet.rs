@@ -25,7 +25,7 @@ use std::f32::consts::FRAC_1_PI;
 use super::albedo;
 use super::fresnel::{schlick, schlick_average};
 use super::ggx::Ggx;
-use super::{LobeFlags, LobeSample, PassClass};
+use super::{Frame, LobeFlags, LobeSample, PassClass};
 use crate::math::{Vec2, Vec3};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 
@@ -196,6 +196,64 @@ impl Microfacet {
     pub fn flags(&self) -> LobeFlags {
         let kind = if self.layer.is_smooth() { LobeFlags::SPECULAR } else { LobeFlags::GLOSSY };
         kind.union(LobeFlags::REFLECTION)
+    }
+}
+
+/// A [`Microfacet`] lobe about a normal of its own: glTF's clearcoat under its
+/// `clearcoatNormalTexture`, or over a normal-mapped base, which the coat does not follow.
+/// `frame` is the lobe's frame in the BSDF's local coordinates; the layer sees `wo` and `wi`
+/// in it (`θ'` its angles). The integrator weights every lobe by `|cos θi|` about the BSDF's
+/// shading normal, so this lobe's `f` is the layer's times `cos θi' / |cos θi|`: `f |cos θi|`
+/// is then the layer's own `f cos θi'`, and the lobe reflects what the layer would about its
+/// normal. Directions below that normal get nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tilted {
+    pub lobe: Microfacet,
+    pub frame: Frame,
+}
+
+impl Tilted {
+    /// The lobe with the unit normal `n` given in the BSDF's local coordinates.
+    pub fn new(lobe: Microfacet, n: Vec3) -> Self {
+        Tilted { lobe, frame: Frame::from_normal(n) }
+    }
+
+    /// `cos θ'` of the local direction `w`.
+    #[inline]
+    pub fn mu(&self, w: Vec3) -> f32 {
+        self.frame.n.dot(w)
+    }
+
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        if wi.z == 0.0 {
+            return Vec3::ZERO;
+        }
+        self.lobe.weight * self.lobe.layer.eval(o, i) * (i.z / wi.z.abs())
+    }
+
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.lobe.layer.pdf(self.frame.to_local(wo), self.frame.to_local(wi))
+    }
+
+    /// Out of line, as [`Tilted::albedo`].
+    #[inline(never)]
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<LobeSample> {
+        let s = self.lobe.layer.sample(self.frame.to_local(wo), uc, u)?;
+        let wi = self.frame.to_world(s.wi);
+        if wi.z == 0.0 {
+            return None;
+        }
+        Some(LobeSample { wi, f: self.lobe.weight * s.f * (s.wi.z / wi.z.abs()), ..s })
+    }
+
+    /// The directional albedo from the local direction `w` (at `cos θ'`). Out of line: inlined
+    /// into the loops over the lobes, it made every BSDF's lobe selection dearer.
+    #[inline(never)]
+    pub fn albedo(&self, w: Vec3) -> Vec3 {
+        self.lobe.weight * self.lobe.layer.albedo(self.mu(w).max(0.0))
     }
 }
 

@@ -9,7 +9,7 @@
 //!   Indexed and non-indexed primitives, sparse accessors ([`gltf_sparse`]), morph targets at
 //!   their default weights ([`gltf_morph`]), `NORMAL`, `TEXCOORD_0` (its `v` turned into
 //!   strahl's bottom-left convention, `1 − v`) and `COLOR_0` (RGB, and its alpha for the alpha test). Where a
-//!   primitive's material has a `normalTexture`, its `TANGENT` (ignored, as glTF asks, when it
+//!   primitive's material has a `normalTexture` (or a `clearcoatNormalTexture`), its `TANGENT` (ignored, as glTF asks, when it
 //!   has no `NORMAL`), else MikkTSpace tangents ([`crate::scene::tangents`]).
 //! - **Nodes**: the node hierarchy with TRS or matrix transforms, composed in f64; each node
 //!   with a mesh is a [`MeshNode`] (the mesh and the node's object-to-world transform), one
@@ -594,10 +594,18 @@ impl Reader<'_> {
                     textures.clearcoat = self.json_texture(value, "clearcoatTexture", Encoding::Linear, what)?;
                     textures.clearcoat_roughness =
                         self.json_texture(value, "clearcoatRoughnessTexture", Encoding::Linear, what)?;
-                    if value.get("clearcoatNormalTexture").is_some() {
-                        self.warn(format!(
-                            "{what}: {name}: clearcoatNormalTexture ignored (the coat uses the base layer's normal)"
-                        ));
+                    out.clearcoat_normal_texture =
+                        self.json_texture(value, "clearcoatNormalTexture", Encoding::Linear, what)?;
+                    out.clearcoat_normal_scale =
+                        value.get("clearcoatNormalTexture").map_or(1.0, |info| json_number(info, "scale", 1.0));
+                    if let (Some(base), Some(coat)) = (&out.normal_texture, &out.clearcoat_normal_texture) {
+                        if base.tex_coord.min(1) != coat.tex_coord.min(1) {
+                            self.warn(format!(
+                                "{what}: {name}: clearcoatNormalTexture reads TEXCOORD_{} but normalTexture \
+                                 TEXCOORD_{}: the coat is mapped with the tangents of the latter",
+                                coat.tex_coord, base.tex_coord
+                            ));
+                        }
                     }
                 }
                 "KHR_materials_sheen" => {
@@ -1099,7 +1107,7 @@ impl Reader<'_> {
             out.indices.extend(triangles.into_iter().map(|t| t.map(|i| i + base)));
             let material = primitive.material().index().map_or(u32::MAX, |i| i as u32);
             let normal_set = self.out.materials.get(material as usize).and_then(|m| m.pbr.as_deref());
-            let normal_set = normal_set.and_then(|p| p.normal_texture.as_ref()).map(|t| t.tex_coord.min(1));
+            let normal_set = normal_set.and_then(|p| p.tangent_set());
             match (normal_set, primitive.get(&gltf::Semantic::Tangents)) {
                 // Without NORMAL, glTF asks for flat normals and its TANGENT to be ignored.
                 (Some(_), Some(a)) if primitive.get(&gltf::Semantic::Normals).is_some() => {
