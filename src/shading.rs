@@ -24,8 +24,9 @@
 //! [`crate::camera::RayCone::per_sample`]) and every later vertex a point (`footprint` 0: the
 //! full-resolution bilinear lookup), as glossy and diffuse bounces average texels anyway.
 //! Textures filtered so: base colour, metallic-roughness, emissive, the extensions'
-//! ([`crate::material::ExtensionTextures`]), and a lecture material's image texture; normal
-//! maps are read at full resolution ([`crate::surface`]).
+//! ([`crate::material::ExtensionTextures`]), a lecture material's image texture, and the
+//! normal maps ([`crate::surface::SurfacePoint::with_footprint`]: a mip level's texel is the
+//! mean of the texels it covers, decoded and normalised as one normal).
 //!
 //! The Whitted integrator does not come here: it shades the lecture fields of every material
 //! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).
@@ -94,10 +95,17 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32) -> S
 /// Where `sp`'s textures are read for a ray from direction `wo` whose cone is `footprint` wide
 /// there (module header): its texture coordinates and the footprint's width in each set's units.
 pub fn tex_coords(sp: &SurfacePoint, wo: Vec3, footprint: f32) -> TexCoords {
+    footprint_on(sp.uv, sp.uv_density, sp.ng, wo, footprint)
+}
+
+/// Texture coordinates `uv` of a surface of normal `ng` with texture-coordinate densities
+/// `density` ([`SurfacePoint::uv_density`]), seen from direction `wo` by a ray whose cone is
+/// `footprint` wide there: the footprint's width in each set's units (module header).
+pub fn footprint_on(uv: [crate::math::Vec2; 2], density: [f32; 2], ng: Vec3, wo: Vec3, footprint: f32) -> TexCoords {
     if !(footprint > 0.0) {
-        return sp.uv.into();
+        return uv.into();
     }
-    let cos = sp.ng.dot(wo.normalize_or_zero()).abs().max(1e-6);
+    let cos = ng.dot(wo.normalize_or_zero()).abs().max(1e-6);
     let along = footprint / cos;
-    TexCoords { uv: sp.uv, width: sp.uv_density.map(|d| d * along) }
+    TexCoords { uv, width: density.map(|d| d * along) }
 }

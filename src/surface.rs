@@ -29,13 +29,15 @@
 //! Normal maps: where the material has a `normalTexture` and the mesh tangents, `ns` is the
 //! mapped normal ([`crate::normal_map`]: the interpolated normal perturbed in its tangent
 //! frame, then flipped with `ng`), kept so that the viewer's mirror direction leaves the
-//! geometric surface (Cycles' rule, [`normal_map::valid_reflection`]). Every integrator, and
-//! the `normal` pass, see that normal. A clearcoat has its own normal (`n_coat`): its
-//! `clearcoatNormalTexture` mapped the same way, or else the normal before mapping.
+//! geometric surface (Cycles' rule, [`normal_map::valid_reflection`]); camera rays of the
+//! path tracer read the map through their ray cone ([`SurfacePoint::with_footprint`]). Every
+//! integrator, and the `normal` pass, see that normal. A clearcoat has its own normal
+//! (`n_coat`): its `clearcoatNormalTexture` mapped the same way, or else the normal before
+//! mapping.
 
 use crate::accel::Hit;
 use crate::geometry::triangle;
-use crate::material::TextureSlot;
+use crate::material::{TexCoords, TextureSlot};
 use crate::math::{Ray, Vec2, Vec3, Vec4};
 use crate::normal_map;
 use crate::scene::{GeomKind, Scene};
@@ -100,6 +102,13 @@ impl SurfacePoint {
     /// The hit's ids must name objects of `scene` and their materials must exist (the
     /// integrator checks the scene before tracing).
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
+        Self::with_footprint(scene, ray, hit, 0.0)
+    }
+
+    /// [`SurfacePoint::new`] for a ray whose cone is `footprint` wide at the hit (world units;
+    /// 0: a point sample): normal maps are read at the level of detail the footprint covers,
+    /// as [`crate::shading`] reads the other textures.
+    pub fn with_footprint(scene: &Scene, ray: &Ray, hit: &Hit, footprint: f32) -> SurfacePoint {
         let prim = hit.prim_id as usize;
         let (p, ng_outward, ns, colour, (uv, uv_density), material, t, tangent) = match scene.geom_kind(hit.geom_id) {
             GeomKind::Mesh(m) => {
@@ -145,8 +154,12 @@ impl SurfacePoint {
         let ng_outward = if ng_outward == Vec3::ZERO { -ray.dir.normalize() } else { ng_outward };
         let ns = if ns == Vec3::ZERO { ng_outward } else { ns };
         let ns = if ns.dot(ng_outward) < 0.0 { -ns } else { ns };
-        let (mapped, coat) =
-            if tangent == Vec4::ZERO { (None, None) } else { mapped_normals(scene, material, ns, tangent, uv) };
+        let (mapped, coat) = if tangent == Vec4::ZERO {
+            (None, None)
+        } else {
+            let at = crate::shading::footprint_on(uv, uv_density, ng_outward, -ray.dir, footprint);
+            mapped_normals(scene, material, ns, tangent, at)
+        };
         let front_face = ray.dir.dot(ng_outward) < 0.0;
         let (ng, ns) = if front_face { (ng_outward, ns) } else { (-ng_outward, -ns) };
         let shading = facing(mapped, ns, ng, ray.dir, front_face);
@@ -185,7 +198,7 @@ fn facing(mapped: Option<Vec3>, ns: Vec3, ng: Vec3, dir: Vec3, front_face: bool)
 }
 
 /// The normal-mapped normals at a point of `material` whose interpolated normal (on the
-/// outward side) is `n`, tangent `tangent` (not zero) and texture coordinates `uv`: the
+/// outward side) is `n`, tangent `tangent` (not zero) and texture coordinates `at`: the
 /// shading normal, if the material has a `normalTexture`, and the coat's, if it has a coat
 /// with a normal of its own ([`crate::material::Pbr::coat_has_own_normal`]): `Some` of its
 /// `clearcoatNormalTexture`'s normal, or of `None` (the normal before mapping). Out of line:
@@ -196,21 +209,22 @@ fn mapped_normals(
     material: u32,
     n: Vec3,
     tangent: Vec4,
-    uv: [Vec2; 2],
+    at: TexCoords,
 ) -> (Option<Vec3>, Option<Option<Vec3>>) {
     let Some(m) = scene.materials[material as usize].pbr.as_deref() else { return (None, None) };
-    let mapped = mapped_normal(m.normal_texture.as_ref(), m.normal_scale, n, tangent, uv);
+    let mapped = mapped_normal(m.normal_texture.as_ref(), m.normal_scale, n, tangent, at);
     let coat = m
         .coat_has_own_normal()
-        .then(|| mapped_normal(m.clearcoat_normal_texture.as_ref(), m.clearcoat_normal_scale, n, tangent, uv));
+        .then(|| mapped_normal(m.clearcoat_normal_texture.as_ref(), m.clearcoat_normal_scale, n, tangent, at));
     (mapped, coat)
 }
 
 /// The normal that the normal map `slot` (with its `scale`) gives a point whose interpolated
 /// normal (on the outward side) is `n`, tangent `tangent` (not zero) and texture coordinates
-/// `uv`, if there is a map and the tangent gives a frame ([`crate::normal_map`]).
-fn mapped_normal(slot: Option<&TextureSlot>, scale: f32, n: Vec3, tangent: Vec4, uv: [Vec2; 2]) -> Option<Vec3> {
-    normal_map::perturb(n, tangent, normal_map::tangent_space_normal(slot?.at(uv), scale))
+/// `at` (and the footprint's width there), if there is a map and the tangent gives a frame
+/// ([`crate::normal_map`]).
+fn mapped_normal(slot: Option<&TextureSlot>, scale: f32, n: Vec3, tangent: Vec4, at: TexCoords) -> Option<Vec3> {
+    normal_map::perturb(n, tangent, normal_map::tangent_space_normal(slot?.at(at), scale))
 }
 
 /// Point, unit geometric normal, shading normal, colour, texture coordinates, `t` and

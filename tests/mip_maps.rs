@@ -11,7 +11,8 @@
 //! `d·γ` wide (`γ = 2 tan 20°/96`), `d·γ/sin α` along the floor, which the texture (a period of
 //! 16 m over 64 texels) divides into `4·d·γ/sin α` texels: level of detail
 //! `λ = log₂(4·d·γ/sin α)`, at least 4.07 on rows 42–46 (where level 4 and coarser hold 2 × 2
-//! cells per texel, exactly 0.5) and below −0.5 on rows 75–95.
+//! cells per texel, exactly 0.5) and below −0.5 on rows 75–95. The same floor with a normal map
+//! instead of the emitted checker shows the mean normal there.
 
 mod common;
 
@@ -29,6 +30,11 @@ fn assets(dir: &TempDir) -> Option<PathBuf> {
 
 /// The red channel of `file`'s floor, `spp` samples per pixel.
 fn render(dir: &TempDir, assets: &Path, file: &str, spp: u32) -> Vec<f32> {
+    render_channel(dir, assets, file, spp, "ViewLayer.Combined.R")
+}
+
+/// The channel `name` of `file`'s image (Combined and Normal passes), `spp` samples per pixel.
+fn render_channel(dir: &TempDir, assets: &Path, file: &str, spp: u32, name: &str) -> Vec<f32> {
     let toml = format!(
         r#"
 [camera]
@@ -41,6 +47,8 @@ height = {HEIGHT}
 spp = {spp}
 max_depth = 1
 background = [0, 0, 0]
+[output]
+passes = ["combined", "normal"]
 [[objects]]
 type = "gltf"
 path = "{}"
@@ -53,7 +61,7 @@ path = "{}"
     assert!(run.status.success(), "{}", text(&run.stderr));
     let (w, h, channels) = read_exr(&out);
     assert_eq!((w, h), (WIDTH, HEIGHT));
-    channel(&channels, "ViewLayer.Combined.R").to_vec()
+    channel(&channels, name).to_vec()
 }
 
 #[test]
@@ -114,4 +122,27 @@ fn many_samples_narrow_each_samples_cone() {
         contrast(&full)
     );
     assert!(mean_abs < 0.02, "the mip-mapped floor is {mean_abs:.4} from the full-resolution one");
+}
+
+/// Normal maps are mip-mapped as the other textures (tools/gltf/mip_assets.py's bumpy floor:
+/// cells of 8 texels tilting the normal 40° one way or the other along x, whose mean is the
+/// untilted normal). On the far rows the Normal pass shows that mean (measured: mean |n.x|
+/// 0.0000), where the same map read at full resolution (the sampler's `minFilter` LINEAR)
+/// shows each sample's cell, tilted (0.29).
+#[test]
+fn far_normal_maps_average_out() {
+    let dir = TempDir::new("mip-maps-normal");
+    let Some(assets) = assets(&dir) else { return };
+    let tilt = |file: &str| {
+        let x = render_channel(&dir, &assets, file, 1, "ViewLayer.Normal.X");
+        let far = 42 * WIDTH..47 * WIDTH;
+        let n = far.len() as f64;
+        far.map(|i| x[i].abs() as f64).sum::<f64>() / n
+    };
+    let (mip, full) = (tilt("bumpy_floor.gltf"), tilt("bumpy_floor_linear.gltf"));
+    eprintln!("far rows, mean |n.x| of the Normal pass: {mip:.4} mip-mapped, {full:.4} at full resolution");
+    assert!(mip < 0.05, "the far normal map is not averaged: mean |n.x| {mip:.4}");
+    // (Less than sin 40° = 0.64: at these grazing angles most tilted normals are bent towards
+    // the geometric one so that the view's mirror direction leaves the floor.)
+    assert!(full > 0.2, "the full-resolution control shows no tilt: mean |n.x| {full:.4}");
 }

@@ -229,9 +229,15 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 }
                 break;
             };
-            let sp = SurfacePoint::new(scene, &ray, &h);
-            let wo = -ray.dir;
             // Camera rays filter textures by their cone; later vertices read them at a point.
+            // Normal maps are read before the hit is re-solved ([`SurfacePoint`]), at the
+            // cone's width at the backend's `t`.
+            let sp = if depth == 0 {
+                SurfacePoint::with_footprint(scene, &ray, &h, self.cone.width_at(h.t * ray.dir.length()))
+            } else {
+                SurfacePoint::new(scene, &ray, &h)
+            };
+            let wo = -ray.dir;
             let footprint = if depth == 0 { self.cone.width_at(sp.t * ray.dir.length()) } else { 0.0 };
             let shading = shade_at(scene, &sp, wo, footprint);
             if depth == 0 {

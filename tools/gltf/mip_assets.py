@@ -10,6 +10,11 @@ emissiveTexture): the 64 x 64 PNG checker.png (RGB, 8 bits) of 8 x 8 cells of 8 
 (x, z) / PERIOD, the sampler repeats, so a cell is PERIOD / 8 metres wide.
 
 checker_floor_linear.gltf: the same, its sampler's minFilter LINEAR (9729): no mipmaps.
+
+bumpy_floor.gltf, bumpy_floor_linear.gltf: the same floor, grey and lit by nothing, with a
+normalTexture (linear) of the same checker layout whose cells tilt the normal by 40 degrees
+one way or the other along the tangent (+x): texels (209, 128, 225) and (46, 128, 225), whose
+mean is a normal within 0.5 degrees of the untilted one. No TANGENT: strahl takes MikkTSpace's.
 """
 
 import base64
@@ -26,11 +31,11 @@ PERIOD = 16.0
 HALF = 2000.0
 
 
-def png():
-    """The checker as an RGB PNG, written with zlib alone."""
+def png(even=(255, 255, 255), odd=(0, 0, 0)):
+    """The checker of cells `even` and `odd` (RGB) as a PNG, written with zlib alone."""
     rows = b""
     for y in range(SIZE):
-        row = bytes(255 if (x // CELL + y // CELL) % 2 == 0 else 0 for x in range(SIZE) for _ in range(3))
+        row = bytes(c for x in range(SIZE) for c in (even if (x // CELL + y // CELL) % 2 == 0 else odd))
         rows += b"\x00" + row
 
     def chunk(kind, data):
@@ -71,14 +76,22 @@ def main(out):
         emissiveTexture=g.TextureInfo(index=0),
         emissiveFactor=[1, 1, 1],
     )
-    for name, sampler in [
-        ("checker_floor.gltf", g.Sampler(wrapS=10497, wrapT=10497)),
-        ("checker_floor_linear.gltf", g.Sampler(wrapS=10497, wrapT=10497, minFilter=9729)),
+    bumpy = g.Material(
+        doubleSided=True,
+        pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[0.5, 0.5, 0.5, 1], metallicFactor=0, roughnessFactor=1),
+        normalTexture=g.NormalMaterialTexture(index=0),
+    )
+    bumps = png((209, 128, 225), (46, 128, 225))
+    for name, mat, image, sampler in [
+        ("checker_floor.gltf", material, png(), g.Sampler(wrapS=10497, wrapT=10497)),
+        ("checker_floor_linear.gltf", material, png(), g.Sampler(wrapS=10497, wrapT=10497, minFilter=9729)),
+        ("bumpy_floor.gltf", bumpy, bumps, g.Sampler(wrapS=10497, wrapT=10497)),
+        ("bumpy_floor_linear.gltf", bumpy, bumps, g.Sampler(wrapS=10497, wrapT=10497, minFilter=9729)),
     ]:
-        write(out, name, sampler, material, accessors, views, blob)
+        write(out, name, sampler, mat, image, accessors, views, blob)
 
 
-def write(out, name, sampler, material, accessors, views, blob):
+def write(out, name, sampler, material, image, accessors, views, blob):
     g.GLTF2(
         scene=0,
         scenes=[g.Scene(nodes=[0])],
@@ -87,7 +100,7 @@ def write(out, name, sampler, material, accessors, views, blob):
         materials=[material],
         textures=[g.Texture(source=0, sampler=0)],
         samplers=[sampler],
-        images=[g.Image(uri=data_uri(png(), "image/png"))],
+        images=[g.Image(uri=data_uri(image, "image/png"))],
         accessors=accessors,
         bufferViews=views,
         buffers=[g.Buffer(byteLength=len(blob), uri=data_uri(blob, "application/octet-stream"))],
