@@ -23,6 +23,21 @@ pub struct TexCoords {
     pub width: [f32; 2],
 }
 
+impl TexCoords {
+    /// Texture coordinates `uv` of a surface of normal `ng` with texture-coordinate densities
+    /// `density` ([`crate::surface::SurfacePoint::uv_density`]), seen from direction `wo` by a
+    /// ray whose cone is `footprint` wide there: the footprint's width in each set's units,
+    /// `density·footprint/|ng·wo|` ([`crate::shading`]).
+    pub fn through_cone(uv: [Vec2; 2], density: [f32; 2], ng: Vec3, wo: Vec3, footprint: f32) -> TexCoords {
+        if !(footprint > 0.0) {
+            return uv.into();
+        }
+        let cos = ng.dot(wo.normalize_or_zero()).abs().max(1e-6);
+        let along = footprint / cos;
+        TexCoords { uv, width: density.map(|d| d * along) }
+    }
+}
+
 impl From<[Vec2; 2]> for TexCoords {
     /// A point sample at `uv`.
     fn from(uv: [Vec2; 2]) -> TexCoords {

@@ -95,17 +95,5 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32) -> S
 /// Where `sp`'s textures are read for a ray from direction `wo` whose cone is `footprint` wide
 /// there (module header): its texture coordinates and the footprint's width in each set's units.
 pub fn tex_coords(sp: &SurfacePoint, wo: Vec3, footprint: f32) -> TexCoords {
-    footprint_on(sp.uv, sp.uv_density, sp.ng, wo, footprint)
-}
-
-/// Texture coordinates `uv` of a surface of normal `ng` with texture-coordinate densities
-/// `density` ([`SurfacePoint::uv_density`]), seen from direction `wo` by a ray whose cone is
-/// `footprint` wide there: the footprint's width in each set's units (module header).
-pub fn footprint_on(uv: [crate::math::Vec2; 2], density: [f32; 2], ng: Vec3, wo: Vec3, footprint: f32) -> TexCoords {
-    if !(footprint > 0.0) {
-        return uv.into();
-    }
-    let cos = ng.dot(wo.normalize_or_zero()).abs().max(1e-6);
-    let along = footprint / cos;
-    TexCoords { uv, width: density.map(|d| d * along) }
+    TexCoords::through_cone(sp.uv, sp.uv_density, sp.ng, wo, footprint)
 }

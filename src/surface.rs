@@ -157,7 +157,7 @@ impl SurfacePoint {
         let (mapped, coat) = if tangent == Vec4::ZERO {
             (None, None)
         } else {
-            let at = crate::shading::footprint_on(uv, uv_density, ng_outward, -ray.dir, footprint);
+            let at = TexCoords::through_cone(uv, uv_density, ng_outward, -ray.dir, footprint);
             mapped_normals(scene, material, ns, tangent, at)
         };
         let front_face = ray.dir.dot(ng_outward) < 0.0;

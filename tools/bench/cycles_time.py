@@ -39,9 +39,10 @@ before and after each run.
   its rendering time into the EXR's header (`cycles.ViewLayer.synchronization_time`,
   `render_time`); strahl prints its BVH build and its rendering time. What is left of the wall
   time is start-up (Blender's own is seconds: it loads its Python and add-ons) and output.
-- Error against a reference, at `--size`: strahl and Cycles at each of `--spp`, Cycles with
-  Blender's default adaptive sampling (noise threshold 0.01, automatic minimum samples) at each
-  of `--adaptive-spp` as its maximum, each against its own renderer's reference of
+- Error against a reference, at `--size`: strahl and Cycles at each of `--spp`, each with
+  adaptive sampling (Blender's default for Cycles: noise threshold 0.01, automatic minimum
+  samples; strahl's `--adaptive-threshold 0.01`, the same rule) at each of `--adaptive-spp` as
+  its maximum, each against its own renderer's reference of
   `--reference-spp` samples per pixel, so that the figure measures noise, not the systematic
   differences between the two renderers (tests/cycles.rs measures those). RMSE over the R, G
   and B values of every pixel. The reference shares no sample with the images it judges:
@@ -178,7 +179,7 @@ class Bench:
         timed(cmd, os.path.join(self.dir, "export.log"))
 
     def run(self, renderer, size, spp, threads, kind="test"):
-        """One render (cached): `renderer` strahl | cycles | cycles-adaptive; `kind` test |
+        """One render (cached): `renderer` strahl | strahl-adaptive | cycles | cycles-adaptive; `kind` test |
         reference. Returns its record."""
         w, h = size
         key = f"{renderer}-{kind}-{w}x{h}-{spp}spp-{threads}t"
@@ -187,7 +188,7 @@ class Bench:
             return done
         exr = os.path.join(self.dir, key + ".exr")
         log = os.path.join(self.dir, key + ".log")
-        if renderer == "strahl":
+        if renderer.startswith("strahl"):
             if kind == "reference":
                 w, h, spp_run = 2 * w, 2 * h, spp // 4
             else:
@@ -196,6 +197,8 @@ class Bench:
             cmd += ["--spp", str(spp_run), "--depth", str(self.args.depth), "--threads", str(threads)]
             cmd += ["--integrator", "path", "--passes", "combined,variance" if kind == "reference" else "combined"]
             cmd += ["--progress-interval", "30"]
+            if renderer == "strahl-adaptive":
+                cmd += ["--adaptive-threshold", "0.01"]
         else:
             adaptive = renderer == "cycles-adaptive"
             seed = 1 if kind == "reference" else 0
@@ -209,7 +212,7 @@ class Bench:
             cmd = ["blender", "-b", self.blend, "--python-expr", setup, "-t", str(threads), "-o", out, "-f", "1"]
         print(f"  {key} ...", end="", flush=True)
         record = timed(cmd, log)
-        if renderer != "strahl":
+        if not renderer.startswith("strahl"):
             os.replace(exr[: -len(".exr")] + "-1.exr", exr)
         record.update(self.phases(renderer, exr, log))
         record.update({"exr": exr, "renderer": renderer, "kind": kind, "width": size[0], "height": size[1]})
@@ -225,7 +228,7 @@ class Bench:
     def phases(self, renderer, exr, log):
         """Wall seconds of setup (scene to the device, BVH build) and of sampling, as the
         renderer reports them."""
-        if renderer == "strahl":
+        if renderer.startswith("strahl"):
             with open(log) as f:
                 text = f.read()
             build = re.search(r"BVH built in ([0-9.]+) ms", text)
@@ -241,7 +244,7 @@ class Bench:
         """The RGB image of a run, and for a strahl reference the variance of its pixels'
         means (2 x 2 pooled)."""
         channels, _ = read_channels(record["exr"])
-        if record["renderer"] == "strahl":
+        if record["renderer"].startswith("strahl"):
             img = rgb(channels, STRAHL_LAYER)
         else:
             img = np.stack([channels[c] for c in "RGB"], axis=-1)
@@ -329,14 +332,14 @@ def error(bench):
     for renderer in ["strahl", "cycles"]:
         refs[renderer] = bench.run(renderer, size, args.reference_spp, threads, kind="reference")
     plan = [("strahl", n) for n in parse_list(args.spp)] + [("cycles", n) for n in parse_list(args.spp)]
-    plan += [("cycles-adaptive", n) for n in parse_list(args.adaptive_spp)]
+    plan += [(f"{r}-adaptive", n) for r in ["strahl", "cycles"] for n in parse_list(args.adaptive_spp)]
     # Take turns: strahl's run at one count, then Cycles' at it, then the next count, Cycles first.
     ordered = []
     counts = sorted({n for _, n in plan})
     for i, n in enumerate(counts):
         here = [p for p in plan if p[1] == n]
         ordered += here if i % 2 == 0 else here[::-1]
-    runs = {"strahl": [], "cycles": [], "cycles-adaptive": []}
+    runs = {"strahl": [], "cycles": [], "strahl-adaptive": [], "cycles-adaptive": []}
     for renderer, n in ordered:
         runs[renderer].append(bench.run(renderer, size, n, threads))
 
@@ -345,7 +348,7 @@ def error(bench):
         images[name] = bench.image(ref)
     results = {}
     for renderer, rs in runs.items():
-        base = "strahl" if renderer == "strahl" else "cycles"
+        base = "strahl" if renderer.startswith("strahl") else "cycles"
         ref_img, ref_var = images[base]
         rs = sorted(rs, key=lambda r: r["spp"])
         mses = [float(((bench.image(r)[0] - ref_img) ** 2).mean()) for r in rs]
@@ -361,6 +364,7 @@ def error(bench):
     subtract = {
         "strahl": {"variance pass": var_s, "fit": fits["strahl"][1]},
         "cycles": {"fit": fits["cycles"][1]},
+        "strahl-adaptive": {"variance pass": var_s, "fit": fits["strahl"][1]},
         "cycles-adaptive": {"fit": fits["cycles"][1]},
     }
     # What a run costs outside sampling: the intercept of CPU time against spp of the uniform runs.
@@ -368,6 +372,7 @@ def error(bench):
         rs = results[renderer]["runs"]
         results[renderer]["u0"], results[renderer]["u"] = line_fit([r["spp"] for r in rs], [cpu(r) for r in rs])
     results["cycles-adaptive"]["u0"] = results["cycles"]["u0"]
+    results["strahl-adaptive"]["u0"] = results["strahl"]["u0"]
 
     w, h = size
     print(f"\nError against each renderer's own reference, {args.scene}, {w} x {h}, depth {args.depth}, {threads} threads")
@@ -424,7 +429,8 @@ def error(bench):
             s = times[("strahl", v, t)]
             print(
                 f"at {100 * t:g} % (strahl's reference noise by {v}): Cycles / strahl {times[('cycles', 'fit', t)] / s:.2f}, "
-                f"Cycles adaptive / strahl {times[('cycles-adaptive', 'fit', t)] / s:.2f}"
+                f"Cycles adaptive / strahl {times[('cycles-adaptive', 'fit', t)] / s:.2f}, "
+                f"Cycles adaptive / strahl adaptive {times[('cycles-adaptive', 'fit', t)] / times[('strahl-adaptive', v, t)]:.2f}"
             )
     return results, times
 
