@@ -198,7 +198,7 @@ class Bench:
             cmd += ["--integrator", "path", "--passes", "combined,variance" if kind == "reference" else "combined"]
             cmd += ["--progress-interval", "30"]
             if renderer == "strahl-adaptive":
-                cmd += ["--adaptive-threshold", "0.01"]
+                cmd += ["--adaptive-threshold", str(self.args.strahl_threshold)]
         else:
             adaptive = renderer == "cycles-adaptive"
             seed = 1 if kind == "reference" else 0
@@ -443,6 +443,7 @@ def main():
     p.add_argument("--size", default="240x135")
     p.add_argument("--spp", default="4,16,64,256")
     p.add_argument("--adaptive-spp", default="128,512")
+    p.add_argument("--strahl-threshold", type=float, default=0.01, help="strahl's --adaptive-threshold (the runs are cached by name: use another --work to change it)")
     p.add_argument("--reference-spp", type=int, default=1024)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--sps-size", default="1920x1080")
