@@ -27,6 +27,9 @@
 //!   quad (Cycles differs on the others, for reasons of Blender's, measured and printed).
 //! - **TransmissionTest** (`KHR_materials_transmission`): alone, the backdrop shows through
 //!   the clear sphere (against a copy without the extension); against Cycles, the spheres.
+//! - **ClearCoatTest** (`KHR_materials_clearcoat`, the coat's own normal): alone, in the rows
+//!   with normal maps each coated sample is its coat-only sample plus a share of its base-only
+//!   one, which holds only when each coat follows its own normal.
 //! - **DamagedHelmet**, not shipped, from a checkout named by `STRAHL_KHRONOS_SAMPLES`: against
 //!   Cycles, the image.
 //!
