@@ -21,7 +21,6 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use common::{TempDir, channel, read_exr, strahl};
 
@@ -39,23 +38,12 @@ fn blender_cornell(dir: &Path, size: usize, spp: u32, flags: &[&str]) -> Option<
     if !common::blender_installed("strahl is not compared with Cycles") {
         return None;
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_cornell.py");
-    let out = Command::new("blender")
-        .args(["-b", "--factory-startup", "--python"])
-        .arg(&script)
-        .arg("--")
-        .arg(dir)
-        .args([size.to_string(), spp.to_string(), DEPTH.to_string()])
-        .args(flags)
-        .output()
-        .expect("blender runs");
+    let mut args: Vec<std::ffi::OsString> = vec![dir.into()];
+    args.extend([size, spp as usize, DEPTH as usize].map(|n| n.to_string().into()));
+    args.extend(flags.iter().map(Into::into));
     let (glb, exr) = (dir.join("cornell.gltf"), dir.join("cycles.exr"));
-    assert!(
-        out.status.success() && glb.exists() && (spp == 0 || exr.exists()),
-        "blender failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let outputs: &[&Path] = if spp == 0 { &[&glb] } else { &[&glb, &exr] };
+    common::run_blender_script("tools/gltf/blender_cornell.py", &args, outputs);
     Some((glb, exr))
 }
 

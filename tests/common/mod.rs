@@ -215,26 +215,32 @@ pub fn cycles_render_gltf(
     view: &[String],
     flags: &[String],
 ) -> PathBuf {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/blender/render_gltf.py");
+    let mut args: Vec<std::ffi::OsString> = vec![src.into(), out_dir.into()];
+    args.extend([size, spp as usize, depth as usize].map(|n| n.to_string().into()));
+    args.extend(view.iter().chain(flags).map(Into::into));
+    let exr = out_dir.join("cycles.exr");
+    run_blender_script("tools/blender/render_gltf.py", &args, &[&exr]);
+    exr
+}
+
+/// Runs the repository's Blender script `script` (a path below the crate's root) headless,
+/// `args` after `--`, and asserts that Blender succeeded and that each of `outputs` exists
+/// (Blender's output in the message otherwise). Call after [`blender_installed`].
+pub fn run_blender_script(script: &str, args: &[std::ffi::OsString], outputs: &[&Path]) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join(script);
     let out = Command::new("blender")
         .args(["-b", "--factory-startup", "--python"])
         .arg(&script)
         .arg("--")
-        .arg(src)
-        .arg(out_dir)
-        .args([size.to_string(), spp.to_string(), depth.to_string()])
-        .args(view)
-        .args(flags)
+        .args(args)
         .output()
         .expect("blender runs");
-    let exr = out_dir.join("cycles.exr");
     assert!(
-        out.status.success() && exr.exists(),
+        out.status.success() && outputs.iter().all(|p| p.exists()),
         "blender failed:\n{}\n{}",
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
-    exr
 }
 
 /// Runs the asset script `tools/gltf/SCRIPT` (pygltflib, not strahl's code) into
