@@ -32,14 +32,24 @@
 //! converged        ⇔ error < threshold            (threshold = 5·T)
 //! ```
 //!
-//! A converged pixel takes no more samples; its film value is the mean over the samples it
-//! took ([`super::pixel`]).
+//! **The dilation** (`film_adaptive_sampling_filter_x`, then `_y`, [`dilate`]): after the
+//! test, a converged pixel goes on sampling when one of its eight neighbours has not
+//! converged (a horizontal pass, then a vertical one: a 3 × 3 box). A pixel stops only when it
+//! and its neighbours have converged, so a pixel whose first samples happened to miss a rare
+//! bright path (a caustic) goes on while a neighbour has seen one. A stopped pixel takes no
+//! more samples; its film value is the mean over the samples it took ([`super::pixel`]).
 //!
-//! **Differences from Cycles**, each so that a pixel's samples decide alone whether it stops,
-//! hence tiles, `--resume`, `merge` and any `--threads` give the same bytes:
-//! - no neighbour dilation: Cycles, after the test, sends a converged pixel back to sampling
-//!   when a horizontal or vertical neighbour has not converged (`film_adaptive_sampling_filter_x`
-//!   and `_y`); strahl's pixels decide alone;
+//! **Differences from Cycles**, each so that when a pixel stops depends on its own cell of the
+//! tile grid alone, hence regions, `--tile`, `--resume`, `merge` and any `--threads` give the
+//! same bytes:
+//! - the dilation stays inside the pixel's cell of the tile grid
+//!   ([`TILE_SIZE`](crate::output::region::TILE_SIZE)² squares anchored at pixel `(0, 0)`), as
+//!   Cycles' stays inside its tile (the whole frame, for frames up to 2048² rendered in the
+//!   background); a tile the region clips traces its whole cell. Without the dilation strahl's
+//!   error stopped falling: on the Cycles benchmark's Cornell room (240 × 135, threshold 0.01)
+//!   9.3 % RMSE at most 2048 samples, against 5.8 % with it (docs/performance.md);
+//! - a stopped pixel stays stopped: Cycles sends a pixel back to sampling when the dilation
+//!   of a later test reaches it;
 //! - a threshold of 0 turns adaptive sampling off (Cycles turns it off with its own switch and
 //!   reads 0 as "automatic", `max(0.001, 1 / spp)`);
 //! - no film exposure (Cycles scales `I` and `A` by it; strahl's exposure is the PNG's only);
@@ -101,6 +111,24 @@ pub fn error(sum: Vec3, a: Vec3, n: u32) -> f32 {
     let intensity = (sum.x + sum.y + sum.z) * scale;
     let error_normalize = if intensity < 1.0 { intensity.sqrt() } else { intensity };
     error_difference / (0.0001 + error_normalize)
+}
+
+/// The dilation of the module docs over a cell of `width` pixels a row, its pixels row by
+/// row: which pixels go on sampling, given which have not converged (a pixel that has stopped
+/// counts as converged). Each goes on when it or one of its eight neighbours in the cell has
+/// not converged.
+pub fn dilate(unconverged: &[bool], width: usize) -> Vec<bool> {
+    let height = unconverged.len() / width.max(1);
+    let row_of = |y: usize| &unconverged[y * width..(y + 1) * width];
+    let mut out = vec![false; unconverged.len()];
+    for y in 0..height {
+        for x in 0..width {
+            let (x0, x1) = (x.saturating_sub(1), (x + 2).min(width));
+            out[y * width + x] =
+                (y.saturating_sub(1)..(y + 2).min(height)).any(|yy| row_of(yy)[x0..x1].iter().any(|&u| u));
+        }
+    }
+    out
 }
 
 /// Whether sample `sample` (0-based) is in Cycles' class A.
@@ -183,6 +211,23 @@ mod tests {
         // Dark pixels are normalised by the square root: intensity 0.25 → 0.5.
         let e = error(Vec3::new(2.0, 1.0, 1.0), Vec3::new(1.0, 1.0, 1.0), 16);
         assert!((e - 0.0625 / 0.5001).abs() < 1e-7);
+    }
+
+    #[test]
+    fn the_dilation_is_a_3_by_3_box_inside_the_cell() {
+        // A 4 × 3 cell, one unconverged pixel at (0, 1) and one at (3, 2).
+        let mut unconverged = vec![false; 12];
+        unconverged[4] = true;
+        unconverged[11] = true;
+        let going_on: Vec<u8> = dilate(&unconverged, 4).into_iter().map(u8::from).collect();
+        #[rustfmt::skip]
+        assert_eq!(going_on, [
+            1, 1, 0, 0,
+            1, 1, 1, 1,
+            1, 1, 1, 1,
+        ]);
+        assert_eq!(dilate(&[false; 6], 3), [false; 6]);
+        assert_eq!(dilate(&[true], 1), [true]);
     }
 
     #[test]

@@ -29,9 +29,10 @@
 //! documented in [`crate::output::film`].
 //!
 //! **Adaptive sampling** ([`adaptive`], `[render] adaptive_threshold`): after the rounds at
-//! which Cycles tests pixels, the pixels of a tile that have converged leave its batch
-//! ([`retire_converged`]); the others go on, in their order, until `spp`. A pixel's samples
-//! decide alone when it stops, so this changes nothing of the above.
+//! which Cycles tests pixels, the pixels of a tile that have converged, their neighbours in
+//! the tile's grid cell too, leave its batch ([`retire_converged`]); the others go on, in
+//! their order, until `spp`. When a pixel stops depends on its cell's samples alone (a tile
+//! the region clips traces its whole cell), so this changes nothing of the above.
 //!
 //! **Streaming.** Each tile's pixels go into the one film as the tile finishes (under a lock
 //! held for the tile's copy); no second frame-sized buffer exists. Every pixel is written by
@@ -276,7 +277,12 @@ fn render_tile<A: Accel, I: Integrator>(
     let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
     let compare = passes.contains(Pass::Disagreement);
     let features = passes.contains(Pass::DenoisingAlbedo) || passes.contains(Pass::DenoisingNormal);
-    let mut pixels = tile.pixels_in_packet_order();
+    let adaptive = scene.render.adaptive.as_ref().map(adaptive::Adaptive::new);
+    // Adaptive sampling decides over the tile's whole grid cell (its neighbour dilation,
+    // [`adaptive::dilate`]): a tile the region clips traces the rest of its cell as well, for
+    // the noise estimates, and returns only its own pixels.
+    let traced = if adaptive.is_some() { tile.grid_cell(scene.image.width, scene.image.height) } else { *tile };
+    let mut pixels = traced.pixels_in_packet_order();
     let spp = scene.image.spp;
     let lens = camera.has_lens();
     let mut samplers: Vec<I::Sampler> =
@@ -289,7 +295,6 @@ fn render_tile<A: Accel, I: Integrator>(
     // Written in place every round (a 160-byte value returned per pixel cost a memcpy call).
     let mut samples = vec![CameraSample::default(); pixels.len()];
     let mut scratch = I::Scratch::default();
-    let adaptive = scene.render.adaptive.as_ref().map(adaptive::Adaptive::new);
     // The pixels still sampling are the first `n` of `pixels`, `samplers` and `accumulators`.
     let mut n = pixels.len();
     for sample in 0..spp {
@@ -318,25 +323,40 @@ fn render_tile<A: Accel, I: Integrator>(
             }
         }
         if let Some(rule) = adaptive.as_ref().filter(|rule| rule.tests_after(sample)) {
-            n = retire_converged(rule, n, &mut pixels, &mut samplers, &mut accumulators);
+            n = retire_converged(rule, &traced, n, &mut pixels, &mut samplers, &mut accumulators);
         }
+    }
+    if traced != *tile {
+        let inside = |&(x, y): &(u32, u32)| (tile.x0..tile.x1).contains(&x) && (tile.y0..tile.y1).contains(&y);
+        let (mine, accumulators): (Vec<_>, Vec<_>) =
+            pixels.into_iter().zip(accumulators).filter(|(p, _)| inside(p)).unzip();
+        return Ok((mine, accumulators, counts));
     }
     Ok((pixels, accumulators, counts))
 }
 
-/// Moves the pixels among the first `n` whose samples meet `rule` behind those that do not,
-/// keeping the order of the latter (their packets stay as coherent as they can), and returns
-/// how many still sample. The three lists are permuted alike.
+/// Moves the pixels among the first `n` that stop after this test (they and their neighbours
+/// in `cell` meet `rule`, [`adaptive::dilate`]) behind those that go on, keeping the order of
+/// the latter (their packets stay as coherent as they can), and returns how many go on. The
+/// three lists are permuted alike; `pixels` are `cell`'s.
 fn retire_converged<S>(
     rule: &adaptive::Adaptive,
+    cell: &Region,
     n: usize,
     pixels: &mut [(u32, u32)],
     samplers: &mut [S],
     accumulators: &mut [PixelAccumulator],
 ) -> usize {
+    let width = cell.width() as usize;
+    let at = |(x, y): (u32, u32)| (y - cell.y0) as usize * width + (x - cell.x0) as usize;
+    let mut unconverged = vec![false; cell.pixel_count() as usize];
+    for (&p, acc) in pixels[..n].iter().zip(&accumulators[..n]) {
+        unconverged[at(p)] = !acc.converged(rule);
+    }
+    let going_on = adaptive::dilate(&unconverged, width);
     let mut kept = 0;
     for i in 0..n {
-        if !accumulators[i].converged(rule) {
+        if going_on[at(pixels[i])] {
             pixels.swap(kept, i);
             samplers.swap(kept, i);
             accumulators.swap(kept, i);

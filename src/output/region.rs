@@ -138,6 +138,14 @@ impl Region {
         out
     }
 
+    /// The cell of the image's tile grid (see the module docs) that holds the region's first
+    /// pixel, clipped to the `width × height` image: for a tile, the whole of its cell.
+    pub fn grid_cell(&self, width: u32, height: u32) -> Region {
+        let first = |a: u32| a - a % TILE_SIZE;
+        let (x0, y0) = (first(self.x0), first(self.y0));
+        Region { x0, y0, x1: x0.saturating_add(TILE_SIZE).min(width), y1: y0.saturating_add(TILE_SIZE).min(height) }
+    }
+
     /// The region's pixels in the order their rays are traced: blocks of 4×2 pixels, so that
     /// each 8-ray packet covers a compact patch of the image (the most coherent rays).
     pub fn pixels_in_packet_order(&self) -> Vec<(u32, u32)> {
@@ -257,6 +265,10 @@ mod tests {
         let full = Region::full(33, 17).tiles();
         assert_eq!(full.len(), 3 * 2);
         assert_eq!(full[5], Region { x0: 32, y0: 16, x1: 33, y1: 17 });
+        // A clipped tile's cell is the whole grid square, clipped only by the image.
+        assert_eq!(tiles[0].grid_cell(40, 20), Region { x0: 0, y0: 0, x1: 16, y1: 16 });
+        assert_eq!(tiles[5].grid_cell(40, 20), Region { x0: 32, y0: 16, x1: 40, y1: 20 });
+        assert_eq!(full[5].grid_cell(33, 17), full[5]);
     }
 
     #[test]
