@@ -12,9 +12,14 @@
 //! full render also has (clipped).
 //!
 //! **The farm split** ([`Region::split`]): `--tile I/N` is the I-th, **1-based** (`1 ≤ I ≤ N`,
-//! as Slurm's `--array=1-N` numbers its tasks), of `N` horizontal bands of whole rows: band `I`
-//! holds rows `⌊(I−1)·H/N⌋ ≤ y < ⌊I·H/N⌋`, so the bands differ by at most one row, follow one
-//! another from the top, and cover the image exactly. `N` may be at most `H` (no empty band).
+//! as Slurm's `--array=1-N` numbers its tasks), of `N` horizontal bands of whole rows that
+//! follow one another from the top and cover the image exactly. With `C = ⌈H/16⌉` rows of
+//! tiles and `N ≤ C`, band `I` holds the tile rows `⌊(I−1)·C/N⌋ ≤ r < ⌊I·C/N⌋` (pixel rows
+//! `16r` to `16r + 15`, the last clipped to the image): the bands differ by at most one tile
+//! row, and none cuts a tile, which adaptive sampling would trace twice
+//! ([`crate::integrator::adaptive`]). With more bands than tile rows, band `I` holds the rows
+//! `⌊(I−1)·H/N⌋ ≤ y < ⌊I·H/N⌋` (bands differing by at most one row). `N` may be at most `H`
+//! (no empty band).
 
 use std::fmt;
 
@@ -109,7 +114,14 @@ impl Region {
         if count > height {
             return Err(format!("{index}/{count}: the image has {height} rows, so at most {height} tiles"));
         }
-        let row = |i: u32| (i as u64 * height as u64 / count as u64) as u32;
+        let cells = height.div_ceil(TILE_SIZE) as u64;
+        let row = |i: u32| {
+            if count as u64 <= cells {
+                (i as u64 * cells / count as u64 * TILE_SIZE as u64).min(height as u64) as u32
+            } else {
+                (i as u64 * height as u64 / count as u64) as u32
+            }
+        };
         Ok(Region { x0: 0, y0: row(index - 1), x1: width, y1: row(index) })
     }
 
@@ -234,7 +246,7 @@ mod tests {
 
     #[test]
     fn split_into_bands_covers_the_image_once() {
-        for (n, h) in [(1, 1), (7, 48), (8, 48), (5, 7), (7, 7)] {
+        for (n, h) in [(1, 1), (7, 48), (8, 48), (5, 7), (7, 7), (3, 48), (2, 47), (4, 1080), (67, 1080), (68, 1080)] {
             let bands: Vec<Region> = (1..=n).map(|i| Region::split(i, n, 10, h).unwrap()).collect();
             assert_eq!(bands[0].y0, 0);
             assert_eq!(bands[n as usize - 1].y1, h);
@@ -244,7 +256,16 @@ mod tests {
             assert!(bands.iter().all(|b| !b.is_empty() && b.x0 == 0 && b.x1 == 10));
             assert!(uncovered(&Region::full(10, h), &bands).is_empty());
         }
+        // More bands than the 3 rows of tiles: bands of rows.
         assert_eq!(Region::split(2, 7, 10, 48).unwrap(), Region { x0: 0, y0: 6, x1: 10, y1: 13 });
+        // At most as many as the rows of tiles (68 rows: 5, the last 4 pixels high): bands of
+        // tile rows, the last clipped to the image.
+        let rows =
+            |n: u32| (1..=n).map(|i| Region::split(i, n, 10, 68).unwrap()).map(|b| (b.y0, b.y1)).collect::<Vec<_>>();
+        assert_eq!(rows(2), [(0, 32), (32, 68)]);
+        assert_eq!(rows(3), [(0, 16), (16, 48), (48, 68)]);
+        assert_eq!(rows(5), [(0, 16), (16, 32), (32, 48), (48, 64), (64, 68)]);
+        assert_eq!(rows(6)[..2], [(0, 11), (11, 22)]);
         assert!(Region::split(0, 4, 10, 10).unwrap_err().contains("1-based"));
         assert!(Region::split(5, 4, 10, 10).unwrap_err().contains("from 1 to 4"));
         assert!(Region::split(1, 0, 10, 10).is_err());
