@@ -435,76 +435,63 @@ impl Bsdf {
         self.front_face
     }
 
-    /// `max(A(μ))` of the layer lobe `top`.
-    #[inline]
-    fn layer_albedo(&self, top: u8, mu: f32) -> f32 {
-        if top == NO_LOBE { 0.0 } else { self.lobes[top as usize].albedo(mu).max_element() }
-    }
-
-    /// The layering factors for each combination of [`UNDER_SHEEN`] and [`UNDER_COAT`].
-    #[inline]
-    fn scales(&self, mu_o: f32, mu_i: f32) -> [f32; 4] {
+    /// The layering factors for each combination of [`UNDER_SHEEN`] and [`UNDER_COAT`], with
+    /// `albedo(lobe, o)` a lobe's directional albedo from `o` (`μ`, or a local direction for a
+    /// BSDF with a [`Lobe::Tilted`]: its layer's albedo at the layer's own `cos θ'`).
+    #[inline(always)]
+    fn scales_with<T: Copy>(&self, o: T, i: T, albedo: impl Fn(&Lobe, T) -> Vec3) -> [f32; 4] {
         let factor = |top: u8| {
             if top == NO_LOBE {
                 1.0
             } else {
-                (1.0 - self.layer_albedo(top, mu_o)).min(1.0 - self.layer_albedo(top, mu_i)).clamp(0.0, 1.0)
+                let lobe = &self.lobes[top as usize];
+                (1.0 - albedo(lobe, o).max_element()).min(1.0 - albedo(lobe, i).max_element()).clamp(0.0, 1.0)
             }
         };
         let (s, c) = (factor(self.sheen), factor(self.coat));
         [1.0, s, c, s * c]
     }
 
-    /// The probability of sampling each lobe from `μo`: in proportion to its mean albedo there,
-    /// layering included.
+    /// The probability of sampling each lobe from `o`: in proportion to its mean albedo there,
+    /// layering included (`albedo` as for [`Bsdf::scales_with`]).
+    #[inline(always)]
+    fn selection_with<T: Copy>(&self, o: T, albedo: impl Fn(&Lobe, T) -> Vec3 + Copy) -> [f32; MAX_LOBES] {
+        let scales = self.scales_with(o, o, albedo);
+        let mut p = [0.0; MAX_LOBES];
+        let mut total = 0.0;
+        for (k, lobe) in self.lobes().iter().enumerate() {
+            p[k] = albedo(lobe, o).element_sum().max(0.0) * scales[self.under[k] as usize];
+            total += p[k];
+        }
+        if total > 0.0 {
+            p.iter_mut().for_each(|x| *x /= total);
+        }
+        p
+    }
+
+    // A BSDF with a [`Lobe::Tilted`] needs the directions, not `μ`, for its layer's albedo; its
+    // layering factors and selection are out of line (`_tilted`), so that the common case
+    // compiles as before: one function taking directions for both cost every other BSDF 3–4 %
+    // more instructions per sample on the glTF rooms (callgrind).
+
+    #[inline]
+    fn scales(&self, mu_o: f32, mu_i: f32) -> [f32; 4] {
+        self.scales_with(mu_o, mu_i, Lobe::albedo)
+    }
+
     #[inline]
     fn selection(&self, mu_o: f32) -> [f32; MAX_LOBES] {
-        let scales = self.scales(mu_o, mu_o);
-        let mut p = [0.0; MAX_LOBES];
-        let mut total = 0.0;
-        for (k, lobe) in self.lobes().iter().enumerate() {
-            p[k] = lobe.albedo(mu_o).element_sum().max(0.0) * scales[self.under[k] as usize];
-            total += p[k];
-        }
-        if total > 0.0 {
-            p.iter_mut().for_each(|x| *x /= total);
-        }
-        p
+        self.selection_with(mu_o, Lobe::albedo)
     }
 
-    // A BSDF with a [`Lobe::Tilted`] takes its layer's albedo at the layer's own `cos θ'`, so
-    // its layering factors and selection need the directions, not `μ`: the two functions below
-    // are [`Bsdf::scales`] and [`Bsdf::selection`] for it, and [`Bsdf::scales_at`] and
-    // [`Bsdf::selection_at`] choose. Kept apart (out of line) because sharing one function
-    // taking directions cost every other BSDF 3–4 % more instructions per sample on the glTF
-    // rooms (callgrind).
-
-    /// [`Bsdf::scales`] of a BSDF with a [`Lobe::Tilted`], for the local directions `wo` and
-    /// `wi` (`wi` on `wo`'s side: a transmitted direction mirrored through the surface).
     #[inline(never)]
     fn scales_tilted(&self, wo: Vec3, wi: Vec3) -> [f32; 4] {
-        let albedo = |top: u8, w: Vec3| {
-            if top == NO_LOBE { 0.0 } else { self.lobes[top as usize].albedo_from(w).max_element() }
-        };
-        let factor = |top: u8| (1.0 - albedo(top, wo)).min(1.0 - albedo(top, wi)).clamp(0.0, 1.0);
-        let (s, c) = (factor(self.sheen), factor(self.coat));
-        [1.0, s, c, s * c]
+        self.scales_with(wo, wi, Lobe::albedo_from)
     }
 
-    /// [`Bsdf::selection`] of a BSDF with a [`Lobe::Tilted`], from the local `wo`.
     #[inline(never)]
     fn selection_tilted(&self, wo: Vec3) -> [f32; MAX_LOBES] {
-        let scales = self.scales_tilted(wo, wo);
-        let mut p = [0.0; MAX_LOBES];
-        let mut total = 0.0;
-        for (k, lobe) in self.lobes().iter().enumerate() {
-            p[k] = lobe.albedo_from(wo).element_sum().max(0.0) * scales[self.under[k] as usize];
-            total += p[k];
-        }
-        if total > 0.0 {
-            p.iter_mut().for_each(|x| *x /= total);
-        }
-        p
+        self.selection_with(wo, Lobe::albedo_from)
     }
 
     /// The layering factors for the local `wo` and `wi` (`wi` on `wo`'s side).
