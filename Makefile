@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles bench-mitsuba clean
 
 all: build
 
@@ -268,6 +268,18 @@ bench-cycles:
 	@command -v blender >/dev/null || { echo "bench-cycles: skipped: blender is not installed (apt-get install blender python3-numpy)"; exit 0; }; \
 	$(MAKE) --no-print-directory build && \
 	for s in cornell dense; do python3 tools/bench/cycles_time.py --scene $$s --strahl $(STRAHL) || exit 1; done
+
+# strahl against Mitsuba 3 (scalar_rgb, its independent and low-discrepancy samplers) on the
+# Cornell box both render in `make test-mitsuba`: samples per CPU-second on 1 and 2 threads and
+# the CPU time to the same RMSE (tools/bench/mitsuba_time.py; figures in docs/performance.md).
+# About 8 CPU-minutes; not part of `make test`. Installs Mitsuba as test-mitsuba does.
+bench-mitsuba:
+	@python3 -c "import mitsuba, numpy, OpenEXR" 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check --user mitsuba numpy OpenEXR 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check --user --break-system-packages mitsuba numpy OpenEXR 2>/dev/null || \
+	  python3 -m pip install -q --disable-pip-version-check mitsuba numpy OpenEXR
+	$(MAKE) --no-print-directory build
+	python3 tools/bench/mitsuba_time.py --strahl $(STRAHL)
 
 clean:
 	$(CARGO) clean
