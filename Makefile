@@ -272,12 +272,10 @@ bench-cycles:
 # strahl against Mitsuba 3 (scalar_rgb, its independent and low-discrepancy samplers) on the
 # Cornell box both render in `make test-mitsuba`: samples per CPU-second on 1 and 2 threads and
 # the CPU time to the same RMSE (tools/bench/mitsuba_time.py; figures in docs/performance.md).
-# About 8 CPU-minutes; not part of `make test`. Installs Mitsuba as test-mitsuba does.
+# About 8 CPU-minutes; not part of `make test`. Installs Mitsuba with pip when it can.
 bench-mitsuba:
-	@python3 -c "import mitsuba, numpy, OpenEXR" 2>/dev/null || \
-	  python3 -m pip install -q --disable-pip-version-check --user mitsuba numpy OpenEXR 2>/dev/null || \
-	  python3 -m pip install -q --disable-pip-version-check --user --break-system-packages mitsuba numpy OpenEXR 2>/dev/null || \
-	  python3 -m pip install -q --disable-pip-version-check mitsuba numpy OpenEXR
+	@$(call pip_install,mitsuba numpy OpenEXR,import mitsuba; import numpy; import OpenEXR)
+	@python3 -c "import mitsuba, numpy, OpenEXR" 2>/dev/null || { echo "bench-mitsuba: python3 cannot import mitsuba, numpy and OpenEXR (pip install mitsuba numpy OpenEXR)" >&2; exit 1; }
 	$(MAKE) --no-print-directory build
 	python3 tools/bench/mitsuba_time.py --strahl $(STRAHL)
 

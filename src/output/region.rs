@@ -136,10 +136,9 @@ impl Region {
     /// The tiles of the region (see the module docs), row by row.
     pub fn tiles(&self) -> Vec<Region> {
         let mut out = Vec::new();
-        let first = |a: u32| a - a % TILE_SIZE;
-        let mut y = first(self.y0);
+        let mut y = cell_start(self.y0);
         while y < self.y1 {
-            let mut x = first(self.x0);
+            let mut x = cell_start(self.x0);
             while x < self.x1 {
                 let cell = Region { x0: x, y0: y, x1: x.saturating_add(TILE_SIZE), y1: y.saturating_add(TILE_SIZE) };
                 out.extend(cell.intersection(self));
@@ -153,8 +152,7 @@ impl Region {
     /// The cell of the image's tile grid (see the module docs) that holds the region's first
     /// pixel, clipped to the `width × height` image: for a tile, the whole of its cell.
     pub fn grid_cell(&self, width: u32, height: u32) -> Region {
-        let first = |a: u32| a - a % TILE_SIZE;
-        let (x0, y0) = (first(self.x0), first(self.y0));
+        let (x0, y0) = (cell_start(self.x0), cell_start(self.y0));
         Region { x0, y0, x1: x0.saturating_add(TILE_SIZE).min(width), y1: y0.saturating_add(TILE_SIZE).min(height) }
     }
 
@@ -173,6 +171,11 @@ impl Region {
         }
         out
     }
+}
+
+/// The first row (or column) of the tile grid's cell that holds row (or column) `a`.
+fn cell_start(a: u32) -> u32 {
+    a - a % TILE_SIZE
 }
 
 /// The parts of `whole` that none of `parts` covers, as rectangles: the uncovered runs of
