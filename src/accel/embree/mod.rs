@@ -126,14 +126,20 @@ impl EmbreeAccel {
     }
 
     /// The closest plane hit, and the ray shortened to it.
-    #[inline]
+    #[inline(always)]
     fn clip_to_planes(&self, ray: &Ray) -> (Ray, Option<Hit>) {
         let mut clipped = *ray;
         let hit = plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).map(|(t, i)| {
             clipped.tfar = t;
-            Hit { t, ng: self.planes[i as usize].normal, u: 0.0, v: 0.0, geom_id: self.planes_geom_id, prim_id: i }
+            self.plane_hit(t, i)
         });
         (clipped, hit)
+    }
+
+    /// The hit at `t` on plane `i`.
+    #[inline(always)]
+    fn plane_hit(&self, t: f32, i: u32) -> Hit {
+        Hit { t, ng: self.planes[i as usize].normal, u: 0.0, v: 0.0, geom_id: self.planes_geom_id, prim_id: i }
     }
 }
 
@@ -148,8 +154,10 @@ impl Accel for EmbreeAccel {
 
     #[inline(always)]
     fn intersect(&self, ray: &Ray) -> Result<Option<Hit>, TraceError> {
-        let (clipped, plane_hit) = self.clip_to_planes(ray);
-        Ok(self.scene.intersect(&clipped)?.map(|h| self.normals.to_world(h)).or(plane_hit))
+        let plane = plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar);
+        let tfar = plane.map_or(ray.tfar, |(t, _)| t);
+        let hit = self.scene.intersect_until(ray, tfar)?.map(|h| self.normals.to_world(h));
+        Ok(hit.or_else(|| plane.map(|(t, i)| self.plane_hit(t, i))))
     }
 
     fn occluded(&self, ray: &Ray) -> Result<bool, TraceError> {
