@@ -33,7 +33,8 @@ noise is taken out with the constant `c` of the fit `MSE(N) = a/N + c` over the 
 through (log CPU seconds of sampling, log RMSE) gives the CPU time to each `--target`.
 
 Mitsuba's `llvm_ad_rgb` needs an LLVM newer than Debian bookworm's 14 (its kernels use
-`fminimum`, which LLVM 14 cannot select): on this machine image it aborts, and the run says so
+`fminimum`, which LLVM 14 cannot select; bookworm's LLVM 15 and 16, given through
+`DRJIT_LIBLLVM_PATH`, fail the same way): on this machine image it aborts, and the run says so
 instead of timing it.
 """
 
