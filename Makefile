@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles bench-mitsuba clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles bench-mitsuba bench-pathtracer clean
 
 all: build
 
@@ -157,11 +157,14 @@ test-mitsuba: deps
 # embree-tools, 11 MB) on the Cornell box OBJ of the test meshes (tests/embree_pathtracer.rs,
 # docs/embree-pathtracer.md). `make test` installs embree-tools too and the test skips loudly
 # without it; here a missing `pathtracer` is a failure.
+# Installs Debian's embree-tools (Embree's tutorial `pathtracer`) when it is missing.
+install_pathtracer = command -v pathtracer >/dev/null || { \
+  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
+  echo "installing: embree-tools"; \
+  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends embree-tools >/dev/null; }
+
 test-embree-pathtracer: deps
-	@command -v pathtracer >/dev/null || { \
-	  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
-	  echo "installing: embree-tools"; \
-	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends embree-tools >/dev/null; }
+	@$(install_pathtracer)
 	STRAHL_REQUIRE_EMBREE_PATHTRACER=1 $(CARGO) test --locked $(DENOISE_FEATURE) --test embree_pathtracer -- --nocapture
 
 # A real one-node Slurm cluster on localhost (installs Debian's Slurm and munge when missing;
@@ -278,6 +281,16 @@ bench-mitsuba:
 	@python3 -c "import mitsuba, numpy, OpenEXR" 2>/dev/null || { echo "bench-mitsuba: python3 cannot import mitsuba, numpy and OpenEXR (pip install mitsuba numpy OpenEXR)" >&2; exit 1; }
 	$(MAKE) --no-print-directory build
 	python3 tools/bench/mitsuba_time.py --strahl $(STRAHL)
+
+# strahl against Embree's tutorial `pathtracer` (embree-tools) on the Cornell box OBJ both read
+# (tests/embree_pathtracer.rs's scene): samples per CPU-second on 1 and 2 threads and the CPU
+# time to the same RMSE (tools/bench/pathtracer_time.py; figures in docs/performance.md). About
+# 6 CPU-minutes; not part of `make test`.
+bench-pathtracer: deps
+	@$(install_pathtracer)
+	@python3 -c "import numpy, OpenEXR" 2>/dev/null || { echo "bench-pathtracer: python3 cannot import numpy and OpenEXR (make test-deps installs them)" >&2; exit 1; }
+	$(MAKE) --no-print-directory build
+	python3 tools/bench/pathtracer_time.py --strahl $(STRAHL)
 
 clean:
 	$(CARGO) clean
