@@ -134,6 +134,14 @@ impl LightBounds {
     /// The importance of these bounds at `p` with surface normal `n` (`Vec3::ZERO`: no
     /// surface), module docs.
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        Self::importance_with(self.phi, self.falloff(p, n))
+    }
+
+    /// The importance's factors besides the power, `(cos θ', d², cos(max(0, θi − θb)))` (the
+    /// last 1 when `n = 0`), or `None` where the importance is 0 (`cos θ' ≤ cos θe`): what two
+    /// bounds alike in all but their power share ([`LightBounds::same_but_power`]).
+    #[inline]
+    fn falloff(&self, p: Vec3, n: Vec3) -> Option<(f32, f32, f32)> {
         let pc = self.centroid();
         let d2 = (p - pc).length_squared().max(0.5 * (self.bounds.max - self.bounds.min).length());
         let wi = (p - pc).normalize_or_zero();
@@ -149,15 +157,31 @@ impl LightBounds {
         let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
         let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_theta_e {
-            return 0.0;
+            return None;
         }
-        let mut importance = self.phi * cos_p / d2;
-        if n != Vec3::ZERO {
+        let facing = if n != Vec3::ZERO {
             let cos_i = wi.dot(n).abs();
             let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
-            importance *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
-        }
+            cos_sub_clamped(sin_i, cos_i, sin_b, cos_b)
+        } else {
+            1.0 // multiplying by 1 changes no bit
+        };
+        Some((cos_p, d2, facing))
+    }
+
+    /// `Φ · cos θ' / d² · facing` from [`LightBounds::falloff`], clamped (module docs).
+    #[inline]
+    fn importance_with(phi: f32, falloff: Option<(f32, f32, f32)>) -> f32 {
+        let Some((cos_p, d2, facing)) = falloff else { return 0.0 };
+        let importance = phi * cos_p / d2 * facing;
         if importance.is_nan() { 0.0 } else { importance.clamp(0.0, MAX_IMPORTANCE) }
+    }
+
+    /// Whether `o` differs from these bounds in its power alone: then both importances share
+    /// one [`LightBounds::falloff`]. The two triangles of a quad light have the same box, cone
+    /// and spread.
+    fn same_but_power(&self, o: &LightBounds) -> bool {
+        LightBounds { phi: o.phi, ..*self } == *o
     }
 
     /// pbrt-v4's cost of these bounds as one side of a split along `axis` of a node whose box is
@@ -267,6 +291,9 @@ struct Node {
     /// A leaf's light, or an inner node's right child (its left child follows it).
     child_or_light: u32,
     leaf: bool,
+    /// An inner node whose children's bounds differ in power alone: their importances
+    /// share one falloff, computed once.
+    twins: bool,
 }
 
 /// The light tree over a scene's lights (module docs).
@@ -380,8 +407,14 @@ impl LightTree {
     /// their powers when both importances are 0 (module docs).
     #[inline]
     fn child_weights(&self, i: usize, p: Vec3, n: Vec3) -> (f32, f32) {
-        let (left, right) = (&self.nodes[i + 1].bounds, &self.nodes[self.nodes[i].child_or_light as usize].bounds);
-        let (c0, c1) = (left.importance(p, n), right.importance(p, n));
+        let node = &self.nodes[i];
+        let (left, right) = (&self.nodes[i + 1].bounds, &self.nodes[node.child_or_light as usize].bounds);
+        let (c0, c1) = if node.twins {
+            let falloff = left.falloff(p, n);
+            (LightBounds::importance_with(left.phi, falloff), LightBounds::importance_with(right.phi, falloff))
+        } else {
+            (left.importance(p, n), right.importance(p, n))
+        };
         if c0 == 0.0 && c1 == 0.0 { (left.phi, right.phi) } else { (c0, c1) }
     }
 
@@ -424,7 +457,7 @@ struct Build<'a> {
 fn build(items: &mut [Item], depth: u32, trail: u64, out: &mut Build) -> usize {
     let at = out.nodes.len();
     if let [item] = items {
-        out.nodes.push(Node { bounds: item.bounds, child_or_light: item.light, leaf: true });
+        out.nodes.push(Node { bounds: item.bounds, child_or_light: item.light, leaf: true, twins: false });
         out.places[item.light as usize] = Place::Tree(trail);
         *out.depth = (*out.depth).max(depth);
         return at;
@@ -433,11 +466,12 @@ fn build(items: &mut [Item], depth: u32, trail: u64, out: &mut Build) -> usize {
     let centroids = Aabb::from_points(items.iter().map(|it| it.centroid));
     let mid = (if depth < SAH_DEPTH { sah_split(items, &bounds.bounds, &centroids) } else { None })
         .unwrap_or_else(|| halve(items, &centroids));
-    out.nodes.push(Node { bounds, child_or_light: 0, leaf: false });
+    out.nodes.push(Node { bounds, child_or_light: 0, leaf: false, twins: false });
     let (left, right) = items.split_at_mut(mid);
-    build(left, depth + 1, trail, out);
+    let l = build(left, depth + 1, trail, out);
     let r = build(right, depth + 1, trail | (1u64 << depth), out);
     out.nodes[at].child_or_light = r as u32;
+    out.nodes[at].twins = out.nodes[l].bounds.same_but_power(&out.nodes[r].bounds);
     at
 }
 
@@ -642,6 +676,30 @@ mod tests {
         assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.5), Some((2, 1.0 / 3.0)));
         assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.9), Some((0, 1.0 - 2.0 / 3.0)));
         assert_eq!(LightTree::new(&[]).sample(Vec3::X, Vec3::Y, 0.5), None);
+    }
+
+    #[test]
+    fn children_alike_but_in_power_share_one_falloff_to_the_bit() {
+        // A quad light's two triangles: the same box and cone, different powers.
+        let quad = Aabb::new(Vec3::new(-0.5, 2.0, -0.5), Vec3::new(0.5, 2.0, 0.5));
+        let tri = |phi| LightExtent::Bounded(LightBounds::diffuse(quad, Vec3::NEG_Y, phi, 1.0, false));
+        let other = LightExtent::Bounded(LightBounds::diffuse(quad, Vec3::NEG_Y, 2.0, 0.5, false));
+        let twins = LightTree::new(&[tri(1.0), tri(3.0)]);
+        assert!(twins.nodes[0].twins && !twins.nodes[1].twins && !twins.nodes[2].twins);
+        assert!(!LightTree::new(&[tri(1.0), other]).nodes[0].twins, "another cone");
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        for _ in 0..1000 {
+            let p = Vec3::new(rng.random_range(-3.0..3.0), rng.random_range(-1.0..3.0), rng.random_range(-3.0..3.0));
+            let n =
+                if rng.random_bool(0.2) { Vec3::ZERO } else { Vec3::new(rng.random(), 1.0, rng.random()).normalize() };
+            let (c0, c1) = twins.child_weights(0, p, n);
+            let (l, r) = (&twins.nodes[1].bounds, &twins.nodes[2].bounds);
+            let separate = match (l.importance(p, n), r.importance(p, n)) {
+                (0.0, 0.0) => (l.phi, r.phi),
+                w => w,
+            };
+            assert_eq!((c0.to_bits(), c1.to_bits()), (separate.0.to_bits(), separate.1.to_bits()), "at {p} {n}");
+        }
     }
 
     #[test]
