@@ -24,7 +24,10 @@
 //! A node whose children both have importance 0 at `p` (as far as their bounds tell, nothing
 //! below it reaches `p`) chooses between them by power instead, so the pmf is a distribution
 //! over the lights at every point (pbrt-v4 returns no light there; the light then chosen
-//! contributes nothing, which is unbiased either way).
+//! contributes nothing, which is unbiased either way). A node whose children's bounds differ
+//! in power alone (a quad light's two triangles) chooses by power everywhere without computing
+//! the importances: their ratio is the powers' ratio, `Φ0·g / (Φ0·g + Φ1·g)` with one factor
+//! `g` for both, up to rounding.
 //!
 //! A node's bounds are the union of its lights': boxes united, cones united (the smallest cone
 //! holding both, pbrt-v4's `Union(DirectionCone, DirectionCone)`), θe the largest, Φ summed,
@@ -134,14 +137,6 @@ impl LightBounds {
     /// The importance of these bounds at `p` with surface normal `n` (`Vec3::ZERO`: no
     /// surface), module docs.
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        Self::importance_with(self.phi, self.falloff(p, n))
-    }
-
-    /// The importance's factors besides the power, `(cos θ', d², cos(max(0, θi − θb)))` (the
-    /// last 1 when `n = 0`), or `None` where the importance is 0 (`cos θ' ≤ cos θe`): what two
-    /// bounds alike in all but their power share ([`LightBounds::same_but_power`]).
-    #[inline]
-    fn falloff(&self, p: Vec3, n: Vec3) -> Option<(f32, f32, f32)> {
         let pc = self.centroid();
         let d2 = (p - pc).length_squared().max(0.5 * (self.bounds.max - self.bounds.min).length());
         let wi = (p - pc).normalize_or_zero();
@@ -157,29 +152,20 @@ impl LightBounds {
         let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
         let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_theta_e {
-            return None;
+            return 0.0;
         }
-        let facing = if n != Vec3::ZERO {
+        let mut importance = self.phi * cos_p / d2;
+        if n != Vec3::ZERO {
             let cos_i = wi.dot(n).abs();
             let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
-            cos_sub_clamped(sin_i, cos_i, sin_b, cos_b)
-        } else {
-            1.0 // multiplying by 1 changes no bit
-        };
-        Some((cos_p, d2, facing))
-    }
-
-    /// `Φ · cos θ' / d² · facing` from [`LightBounds::falloff`], clamped (module docs).
-    #[inline]
-    fn importance_with(phi: f32, falloff: Option<(f32, f32, f32)>) -> f32 {
-        let Some((cos_p, d2, facing)) = falloff else { return 0.0 };
-        let importance = phi * cos_p / d2 * facing;
+            importance *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+        }
         if importance.is_nan() { 0.0 } else { importance.clamp(0.0, MAX_IMPORTANCE) }
     }
 
-    /// Whether `o` differs from these bounds in its power alone: then both importances share
-    /// one [`LightBounds::falloff`]. The two triangles of a quad light have the same box, cone
-    /// and spread.
+    /// Whether `o` differs from these bounds in its power alone (the two triangles of a quad
+    /// light have the same box, cone and spread): then their importances are in the ratio of
+    /// their powers at every point.
     fn same_but_power(&self, o: &LightBounds) -> bool {
         LightBounds { phi: o.phi, ..*self } == *o
     }
@@ -291,8 +277,8 @@ struct Node {
     /// A leaf's light, or an inner node's right child (its left child follows it).
     child_or_light: u32,
     leaf: bool,
-    /// An inner node whose children's bounds differ in power alone: their importances
-    /// share one falloff, computed once.
+    /// An inner node whose children's bounds differ in power alone: it chooses between
+    /// them by power (module docs).
     twins: bool,
 }
 
@@ -409,12 +395,12 @@ impl LightTree {
     fn child_weights(&self, i: usize, p: Vec3, n: Vec3) -> (f32, f32) {
         let node = &self.nodes[i];
         let (left, right) = (&self.nodes[i + 1].bounds, &self.nodes[node.child_or_light as usize].bounds);
-        let (c0, c1) = if node.twins {
-            let falloff = left.falloff(p, n);
-            (LightBounds::importance_with(left.phi, falloff), LightBounds::importance_with(right.phi, falloff))
-        } else {
-            (left.importance(p, n), right.importance(p, n))
-        };
+        if node.twins {
+            // Φ0·g / (Φ0·g + Φ1·g) with one falloff g for both: the ratio of the powers, the
+            // point aside (and so also where g is 0).
+            return (left.phi, right.phi);
+        }
+        let (c0, c1) = (left.importance(p, n), right.importance(p, n));
         if c0 == 0.0 && c1 == 0.0 { (left.phi, right.phi) } else { (c0, c1) }
     }
 
@@ -679,7 +665,7 @@ mod tests {
     }
 
     #[test]
-    fn children_alike_but_in_power_share_one_falloff_to_the_bit() {
+    fn children_alike_but_in_power_are_chosen_by_power() {
         // A quad light's two triangles: the same box and cone, different powers.
         let quad = Aabb::new(Vec3::new(-0.5, 2.0, -0.5), Vec3::new(0.5, 2.0, 0.5));
         let tri = |phi| LightExtent::Bounded(LightBounds::diffuse(quad, Vec3::NEG_Y, phi, 1.0, false));
@@ -692,13 +678,13 @@ mod tests {
             let p = Vec3::new(rng.random_range(-3.0..3.0), rng.random_range(-1.0..3.0), rng.random_range(-3.0..3.0));
             let n =
                 if rng.random_bool(0.2) { Vec3::ZERO } else { Vec3::new(rng.random(), 1.0, rng.random()).normalize() };
-            let (c0, c1) = twins.child_weights(0, p, n);
+            assert_eq!((twins.pmf(p, n, 0), twins.pmf(p, n, 1)), (0.25, 0.75), "at {p} {n}");
+            // What the importances give, where they are not 0, up to rounding.
             let (l, r) = (&twins.nodes[1].bounds, &twins.nodes[2].bounds);
-            let separate = match (l.importance(p, n), r.importance(p, n)) {
-                (0.0, 0.0) => (l.phi, r.phi),
-                w => w,
-            };
-            assert_eq!((c0.to_bits(), c1.to_bits()), (separate.0.to_bits(), separate.1.to_bits()), "at {p} {n}");
+            let (c0, c1) = (l.importance(p, n), r.importance(p, n));
+            if c0 > 0.0 {
+                assert!((c0 / (c0 + c1) - 0.25).abs() < 1e-6, "at {p} {n}: {c0} {c1}");
+            }
         }
     }
 
