@@ -51,7 +51,8 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
 sys.path.insert(0, HERE)
-from cycles_time import cpu, line_fit, mse_fit, parse_list, read_channels, rgb, timed  # noqa: E402
+import error_fit  # noqa: E402
+from cycles_time import cpu, parse_list, read_channels, rgb, timed  # noqa: E402
 
 
 def mitsuba_run(variant, sampler, scene_path, size, spp, threads, seed, out):
@@ -160,25 +161,10 @@ def main():
     rows = []
     for renderer in renderers:
         reference = bench.image(bench.run(renderer, args.reference_spp, max(threads), reference=True), reference=True)
-        mean = reference.mean()
         for t in threads:
             runs = [bench.run(renderer, n, t) for n in spps]
-            u0, u = line_fit([r["spp"] for r in runs], [cpu(r) for r in runs])
-            mses = [float(((bench.image(r) - reference) ** 2).mean()) for r in runs]
-            a, c = mse_fit([r["spp"] for r in runs], mses)
-            rmse = [np.sqrt(max(m - c, 1e-30)) / mean for m in mses]
-            sampling = [u * r["spp"] for r in runs]
-            b0, b1 = line_fit(np.log(sampling), np.log(rmse))
-            to = {x: float(np.exp((np.log(x) - b0) / b1)) for x in targets}
-            sps = args.size**2 / u
-            rows.append((renderer, t, sps, u0, a / mean**2, c / mean**2, rmse, to))
-    print(f"\n{args.size}² pixels, {os.path.basename(args.scene)}, spp {spps}, references {args.reference_spp} spp")
-    print("| renderer | threads | samples per CPU-second | U0 (CPU s) | relative MSE per sample (a / mean²) | reference noise (c / mean²) | RMSE / mean | CPU s to " + " | ".join(f"{x:.0%}" for x in targets) + " |")
-    print("|---|---|---|---|---|---|---|" + "---|" * len(targets))
-    for renderer, t, sps, u0, a, c, rmse, to in rows:
-        errors = " / ".join(f"{100 * r:.1f}" for r in rmse)
-        times = " | ".join(f"{to[x]:.1f}" for x in targets)
-        print(f"| {renderer} | {t} | {sps / 1e3:.0f} k | {u0:.2f} | {a:.3e} | {c:.1e} | {errors} % | {times} |")
+            rows.append(error_fit.fit(renderer, t, runs, [bench.image(r) for r in runs], reference, targets))
+    error_fit.print_table(f"{args.size}² pixels, {os.path.basename(args.scene)}, spp {spps}, references {args.reference_spp} spp", rows, targets)
     print(f"load average at end: {os.getloadavg()}")
 
 
