@@ -390,7 +390,8 @@ impl LightTree {
     }
 
     /// The weights of inner node `i`'s children at `p` (normal `n`): their importances, or
-    /// their powers when both importances are 0 (module docs).
+    /// their powers when both importances are 0 or the children differ in power alone (module
+    /// docs).
     #[inline]
     fn child_weights(&self, i: usize, p: Vec3, n: Vec3) -> (f32, f32) {
         let node = &self.nodes[i];

@@ -126,7 +126,7 @@ impl EmbreeAccel {
     }
 
     /// The closest plane hit, and the ray shortened to it.
-    #[inline(always)]
+    #[inline]
     fn clip_to_planes(&self, ray: &Ray) -> (Ray, Option<Hit>) {
         let mut clipped = *ray;
         let hit = plane::closest(&self.planes, ray.org, ray.dir, ray.tnear, ray.tfar).map(|(t, i)| {
