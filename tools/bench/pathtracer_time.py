@@ -61,6 +61,8 @@ def read_pfm(path, size):
 def scene(work, data):
     """The OBJ, its MTL with every Ke 0, and strahl's TOML, in `work`: the TOML's path."""
     source = os.path.join(data, "meshes", "cornell")
+    if not os.path.isfile(os.path.join(source, OBJ)):
+        raise SystemExit(f"{os.path.join(source, OBJ)}: not found (set STRAHL_TEST_DATA to the test data)")
     shutil.copy(os.path.join(source, OBJ), os.path.join(work, OBJ))
     with open(os.path.join(source, MTL)) as f:
         lines = [("  Ke 0 0 0" if line.strip().startswith("Ke ") else line.rstrip("\n")) for line in f]
