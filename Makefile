@@ -157,14 +157,11 @@ test-mitsuba: deps
 # embree-tools, 11 MB) on the Cornell box OBJ of the test meshes (tests/embree_pathtracer.rs,
 # docs/embree-pathtracer.md). `make test` installs embree-tools too and the test skips loudly
 # without it; here a missing `pathtracer` is a failure.
-# Installs Debian's embree-tools (Embree's tutorial `pathtracer`) when it is missing.
-install_pathtracer = command -v pathtracer >/dev/null || { \
-  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
-  echo "installing: embree-tools"; \
-  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends embree-tools >/dev/null; }
-
 test-embree-pathtracer: deps
-	@$(install_pathtracer)
+	@command -v pathtracer >/dev/null || { \
+	  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
+	  echo "installing: embree-tools"; \
+	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends embree-tools >/dev/null; }
 	STRAHL_REQUIRE_EMBREE_PATHTRACER=1 $(CARGO) test --locked $(DENOISE_FEATURE) --test embree_pathtracer -- --nocapture
 
 # A real one-node Slurm cluster on localhost (installs Debian's Slurm and munge when missing;
@@ -285,10 +282,11 @@ bench-mitsuba:
 # strahl against Embree's tutorial `pathtracer` (embree-tools) on the Cornell box OBJ both read
 # (tests/embree_pathtracer.rs's scene): samples per CPU-second on 1 and 2 threads and the CPU
 # time to the same RMSE (tools/bench/pathtracer_time.py; figures in docs/performance.md). About
-# 6 CPU-minutes; not part of `make test`.
-bench-pathtracer: deps
-	@$(install_pathtracer)
-	@python3 -c "import numpy, OpenEXR" 2>/dev/null || { echo "bench-pathtracer: python3 cannot import numpy and OpenEXR (make test-deps installs them)" >&2; exit 1; }
+# 6 CPU-minutes; not part of `make test`. Its tools (embree-tools, numpy, OpenEXR) are the
+# tests' own (test-deps).
+bench-pathtracer: deps test-deps
+	@command -v pathtracer >/dev/null || { echo "bench-pathtracer: pathtracer is missing (apt-get install embree-tools)" >&2; exit 1; }
+	@python3 -c "import numpy, OpenEXR" 2>/dev/null || { echo "bench-pathtracer: python3 cannot import numpy and OpenEXR (pip install numpy OpenEXR)" >&2; exit 1; }
 	$(MAKE) --no-print-directory build
 	python3 tools/bench/pathtracer_time.py --strahl $(STRAHL)
 

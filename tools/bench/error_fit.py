@@ -28,6 +28,19 @@ def fit(renderer, threads, runs, images, reference, targets):
             "a": a / mean**2, "c": c / mean**2, "rmse": rmse, "to": to}
 
 
+def measure(bench, renderers, reference_spp, spps, threads, targets):
+    """Each renderer's reference (on the most threads), then its runs at `spps` on each of
+    `threads`: the rows of [`fit`]. `bench.run(renderer, spp, threads, reference=...)` renders
+    and returns a record; `bench.image(record)` reads its image at the runs' size."""
+    rows = []
+    for renderer in renderers:
+        reference = bench.image(bench.run(renderer, reference_spp, max(threads), reference=True))
+        for t in threads:
+            runs = [bench.run(renderer, n, t) for n in spps]
+            rows.append(fit(renderer, t, runs, [bench.image(r) for r in runs], reference, targets))
+    return rows
+
+
 def print_table(title, rows, targets):
     print(f"\n{title}")
     print("| renderer | threads | samples per CPU-second | U0 (CPU s) | image mean | relative MSE per sample (a / mean²) | reference noise (c / mean²) | RMSE / mean | CPU s to " + " | ".join(f"{x:.0%}" for x in targets) + " |")

@@ -96,8 +96,8 @@ class Bench:
         key = f"{name}-{'reference' if reference else 'test'}-{size}-{spp}spp-{threads}t"
         exr = os.path.join(self.dir, key + (".exr" if renderer == "strahl" else ".npy"))
         log = os.path.join(self.dir, key + ".log")
+        w, n = (2 * size, spp // 4) if reference and renderer == "strahl" else (size, spp)
         if renderer == "strahl":
-            w, n = (2 * size, spp // 4) if reference else (size, spp)
             cmd = [a.strahl, "render", a.scene, "-o", exr, "--width", str(w), "--height", str(w)]
             cmd += ["--spp", str(n), "--threads", str(threads), "--integrator", "path", "--passes", "combined"]
         else:
@@ -106,17 +106,19 @@ class Bench:
             cmd += [str(size), str(spp), str(threads), str(seed), exr]
         print(f"  {key} ...", end="", flush=True)
         record = timed(cmd, log)
-        record.update({"exr": exr, "renderer": renderer, "spp": spp, "threads": threads})
+        record.update({"exr": exr, "renderer": renderer, "spp": spp, "threads": threads, "size": w})
         print(f" wall {record['wall']:.1f} s, CPU {cpu(record):.1f} s, load {record['load_before']:.1f}", flush=True)
         return record
 
-    def image(self, record, reference=False):
+    def image(self, record):
+        """The run's image at `--size`² (strahl's reference, rendered at twice the size,
+        averaged 2 × 2)."""
         size = self.args.size
         if record["renderer"] != "strahl":
             return np.load(record["exr"]).astype(np.float64).reshape(size, size, 3)
         channels, _ = read_channels(record["exr"])
         img = rgb(channels, "ViewLayer.Combined.")
-        if reference:
+        if record["size"] != size:
             img = img.reshape(size, 2, size, 2, 3).mean(axis=(1, 3))
         return img.reshape(size, size, 3)
 
@@ -158,12 +160,7 @@ def main():
     spps, targets = parse_list(args.spp), [float(t) for t in args.target.split(",")]
     threads = parse_list(args.threads)
     print(f"load average at start: {os.getloadavg()}")
-    rows = []
-    for renderer in renderers:
-        reference = bench.image(bench.run(renderer, args.reference_spp, max(threads), reference=True), reference=True)
-        for t in threads:
-            runs = [bench.run(renderer, n, t) for n in spps]
-            rows.append(error_fit.fit(renderer, t, runs, [bench.image(r) for r in runs], reference, targets))
+    rows = error_fit.measure(bench, renderers, args.reference_spp, spps, threads, targets)
     error_fit.print_table(f"{args.size}² pixels, {os.path.basename(args.scene)}, spp {spps}, references {args.reference_spp} spp", rows, targets)
     print(f"load average at end: {os.getloadavg()}")
 

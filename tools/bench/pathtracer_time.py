@@ -135,12 +135,7 @@ def main():
     bench = Bench(args)
     spps, targets, threads = parse_list(args.spp), [float(t) for t in args.target.split(",")], parse_list(args.threads)
     print(f"load average at start: {os.getloadavg()}")
-    rows = []
-    for renderer in ["strahl", "pathtracer"]:
-        reference = bench.image(bench.run(renderer, args.reference_spp, max(threads), reference=True))
-        for t in threads:
-            runs = [bench.run(renderer, n, t) for n in spps]
-            rows.append(error_fit.fit(renderer, t, runs, [bench.image(r) for r in runs], reference, targets))
+    rows = error_fit.measure(bench, ["strahl", "pathtracer"], args.reference_spp, spps, threads, targets)
     error_fit.print_table(f"{args.size}² pixels, the Cornell box OBJ and a point light, spp {spps}, references {args.reference_spp} spp", rows, targets)
     print(f"load average at end: {os.getloadavg()}")
 
