@@ -45,8 +45,8 @@ pub struct Volume {
     pub sigma_a: Vec3,
 }
 
-/// What a path vertex needs of its material.
-#[derive(Clone, Debug)]
+/// What a path vertex needs of its material ([`shade_at`] fills it; `default()`: black).
+#[derive(Clone, Debug, Default)]
 pub struct Shading {
     pub bsdf: Bsdf,
     /// Radiance emitted back along the ray that found the point.
@@ -55,41 +55,47 @@ pub struct Shading {
     pub volume: Option<Volume>,
 }
 
-/// The BSDF, emission and volume of `sp` seen along `wo` (towards the viewer); `footprint`
-/// is the ray's width at the hit (world units; 0: a point sample). The material must exist:
-/// the scene is checked before rendering.
-pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32) -> Shading {
+/// Sets `out` to the BSDF, emission and volume of `sp` seen along `wo` (towards the viewer);
+/// `footprint` is the ray's width at the hit (world units; 0: a point sample). The material
+/// must exist: the scene is checked before rendering. `out` is filled in place, the caller's
+/// one per path: a BSDF is 632 bytes, and returning a new one was a `memcpy` per vertex.
+pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32, out: &mut Shading) {
     let m = &scene.materials[sp.material as usize];
     let coords = tex_coords(sp, wo, footprint);
     let frame = Frame::from_normal(sp.ns);
     let one_sided_back = m.emission_one_sided && !sp.front_face;
-    let Some(pbr) = m.pbr.as_deref() else {
-        let albedo = match &m.diffuse {
-            Texture::Image(_) if footprint > 0.0 => m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color,
-            _ => sp.albedo(scene),
-        };
-        let params = LectureParams {
-            albedo,
-            specular: m.specular,
-            shininess: m.shininess,
-            mirror: m.mirror,
-            transmission: m.transmission,
-            ior: m.ior,
-        };
-        let bsdf = bsdf::lecture(&params, frame, sp.ng, sp.front_face);
-        let emission = if one_sided_back { Vec3::ZERO } else { m.emission };
-        return Shading { bsdf, emission, volume: None };
-    };
-    if pbr.unlit {
-        let base = pbr.base_color_at(coords, sp.color);
-        let bsdf = Bsdf::new(frame, sp.ng, sp.front_face);
-        return Shading { bsdf, emission: base, volume: None };
+    out.bsdf.reset(frame, sp.ng, sp.front_face);
+    out.emission = Vec3::ZERO;
+    out.volume = None;
+    match m.pbr.as_deref() {
+        None => {
+            let albedo = match &m.diffuse {
+                Texture::Image(_) if footprint > 0.0 => m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color,
+                _ => sp.albedo(scene),
+            };
+            let params = LectureParams {
+                albedo,
+                specular: m.specular,
+                shininess: m.shininess,
+                mirror: m.mirror,
+                transmission: m.transmission,
+                ior: m.ior,
+            };
+            bsdf::lecture(&mut out.bsdf, &params);
+            if !one_sided_back {
+                out.emission = m.emission;
+            }
+        }
+        Some(pbr) if pbr.unlit => out.emission = pbr.base_color_at(coords, sp.color),
+        Some(pbr) => {
+            let params = pbr.params_at(coords, sp.color);
+            bsdf::gltf(&mut out.bsdf, &params, sp.n_coat);
+            if !one_sided_back {
+                out.emission = pbr.emission_at(coords);
+            }
+            out.volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
+        }
     }
-    let params = pbr.params_at(coords, sp.color);
-    let bsdf = bsdf::gltf(&params, frame, sp.n_coat, sp.ng, sp.front_face);
-    let emission = if one_sided_back { Vec3::ZERO } else { pbr.emission_at(coords) };
-    let volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
-    Shading { bsdf, emission, volume }
 }
 
 /// Where `sp`'s textures are read for a ray from direction `wo` whose cone is `footprint` wide

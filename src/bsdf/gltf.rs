@@ -86,7 +86,7 @@ use super::glass::Glass;
 use super::lambert::{Lambert, LayeredDiffuse};
 use super::microfacet::{GgxReflection, Microfacet, Tilted};
 use super::sheen::Sheen;
-use super::{Bsdf, Frame, Lobe};
+use super::{Bsdf, Lobe};
 use crate::math::Vec3;
 
 /// The glTF material's parameters at one hit point (factors × textures, resolved by the
@@ -150,24 +150,19 @@ fn dielectric_fresnel(p: &PbrParams) -> (Vec3, f32) {
     (f0, specular)
 }
 
-/// The glTF BSDF at a hit: `frame` around the shading normal (facing `wo`), `coat_normal` the
-/// clearcoat's unit normal (facing `wo`; `frame.n` where the coat follows the shading normal),
-/// `ng` the geometric normal (facing `wo`), `front_face` whether the hit was from outside.
-/// Parameters out of their ranges are clamped into them.
-pub fn gltf(p: &PbrParams, frame: Frame, coat_normal: Vec3, ng: Vec3, front_face: bool) -> Bsdf {
-    build(p, frame, coat_normal, ng, front_face, true)
+/// Adds the glTF material's lobes to `b`, an empty BSDF ([`Bsdf::new`]: its frame around the
+/// shading normal and its geometric normal facing `wo`, and whether the hit was from outside;
+/// filled in place, as [`super::lecture`] is). `coat_normal` is the clearcoat's unit normal
+/// (facing `wo`; the frame's `n` where the coat follows the shading normal). Parameters out of
+/// their ranges are clamped into them.
+pub fn gltf(b: &mut Bsdf, p: &PbrParams, coat_normal: Vec3) {
+    build(b, p, coat_normal, true)
 }
 
 /// [`gltf`] with or without the multiple-scattering compensation (the furnace figures show
 /// what single scattering loses).
-pub(crate) fn build(
-    p: &PbrParams,
-    frame: Frame,
-    coat_normal: Vec3,
-    ng: Vec3,
-    front_face: bool,
-    compensate: bool,
-) -> Bsdf {
+pub(crate) fn build(b: &mut Bsdf, p: &PbrParams, coat_normal: Vec3, compensate: bool) {
+    let (frame, front_face) = (*b.frame(), b.front_face());
     let base = unit3(p.base_color);
     let (m, t, r) = (unit(p.metallic), unit(p.transmission), unit(p.roughness));
     let (f0_d, f90_d) = dielectric_fresnel(p);
@@ -176,7 +171,6 @@ pub(crate) fn build(
     let metal = if m > 0.0 { GgxReflection::new(r, base, Vec3::ONE, compensate) } else { dielectric };
     let opaque = (1.0 - m) * (1.0 - t);
 
-    let mut b = Bsdf::new(frame, ng, front_face);
     let spec = GgxReflection::mix(&dielectric, opaque, &metal, m);
     if !spec.is_black() {
         b.push(Lobe::Microfacet(Microfacet {
@@ -218,7 +212,6 @@ pub(crate) fn build(
         });
         b.layer_over(k, false);
     }
-    b
 }
 
 /// The specification's own BRDF (Appendix B, "sample implementation"), uncompensated and with

@@ -12,7 +12,7 @@
 //! the material's: `ρ + k_s + k_r + k_t ≤ 1` per channel reflects at most what arrives
 //! ([`crate::material::Material`]).
 
-use super::{Bsdf, Frame, Lobe, blinn_phong, lambert, specular};
+use super::{Bsdf, Lobe, blinn_phong, lambert, specular};
 use crate::math::Vec3;
 
 /// A Whitted material's numbers at one hit (the diffuse texture already applied).
@@ -32,10 +32,12 @@ pub struct LectureParams {
     pub ior: f32,
 }
 
-/// The lecture BSDF in `frame` (around the shading normal, facing `wo`), with geometric normal
-/// `ng` (facing `wo`); `front_face`: the surface was hit from outside.
-pub fn lecture(p: &LectureParams, frame: Frame, ng: Vec3, front_face: bool) -> Bsdf {
-    let mut b = Bsdf::new(frame, ng, front_face);
+/// Adds the lecture material's lobes to `b`, an empty BSDF ([`Bsdf::new`]: its frame around the
+/// shading normal and its geometric normal facing `wo`, and whether the surface was hit from
+/// outside). The BSDF is filled in place: it is 632 bytes, and moving one built here into the
+/// caller's [`crate::shading::Shading`] was a `memcpy` at every path vertex.
+pub fn lecture(b: &mut Bsdf, p: &LectureParams) {
+    let front_face = b.front_face();
     if p.albedo != Vec3::ZERO {
         b.push(Lobe::Lambert(lambert::Lambert { color: p.albedo }));
     }
@@ -49,5 +51,4 @@ pub fn lecture(p: &LectureParams, frame: Frame, ng: Vec3, front_face: bool) -> B
         let (eta_i, eta_t) = if front_face { (1.0, p.ior) } else { (p.ior, 1.0) };
         b.push(Lobe::SmoothDielectric(specular::SmoothDielectric { kt: p.transmission, eta_i, eta_t }));
     }
-    b
 }

@@ -23,8 +23,8 @@
 //! `1 − A(μo)` of what it receives). glTF's sheen and clearcoat layer this way; the Lambertian
 //! base under the specular layer uses the exact, energy-preserving form of [`lambert`].
 //!
-//! Constructors: [`lecture`] (strahl's Whitted materials as lobes) and [`gltf`] (the glTF 2.0
-//! metallic-roughness material and its extensions).
+//! Constructors: [`Bsdf::new`] (black), then [`lecture`] (strahl's Whitted materials as lobes)
+//! or [`gltf`] (the glTF 2.0 metallic-roughness material and its extensions) add the lobes.
 
 mod albedo;
 mod blinn_phong;
@@ -376,9 +376,16 @@ pub struct Bsdf {
     lobes: ArrayVec<Lobe, MAX_LOBES>,
 }
 
+/// Black, about `+z`.
+impl Default for Bsdf {
+    fn default() -> Self {
+        Bsdf::new(Frame::from_normal(Vec3::Z), Vec3::Z, true)
+    }
+}
+
 impl Bsdf {
     /// An empty BSDF (black) in `frame` with geometric normal `ng` (facing `wo`'s side).
-    pub(crate) fn new(frame: Frame, ng: Vec3, front_face: bool) -> Self {
+    pub fn new(frame: Frame, ng: Vec3, front_face: bool) -> Self {
         Bsdf {
             frame,
             ng,
@@ -389,6 +396,13 @@ impl Bsdf {
             under: [0; MAX_LOBES],
             lobes: ArrayVec::new(),
         }
+    }
+
+    /// Makes this BSDF [`Bsdf::new`]'s, in place.
+    pub fn reset(&mut self, frame: Frame, ng: Vec3, front_face: bool) {
+        (self.frame, self.ng, self.front_face) = (frame, ng, front_face);
+        (self.sheen, self.coat, self.tilted, self.under) = (NO_LOBE, NO_LOBE, false, [0; MAX_LOBES]);
+        self.lobes.clear();
     }
 
     /// Adds a lobe (ignored past [`MAX_LOBES`]; the constructors never exceed it).

@@ -28,7 +28,14 @@ fn glass_params(roughness: f32) -> PbrParams {
 
 /// A glTF BSDF seen from outside (`front_face`) or from inside, with the facing normal up.
 fn gltf_up(p: &PbrParams, front_face: bool) -> Bsdf {
-    gltf(p, up(), Vec3::Z, Vec3::Z, front_face)
+    built(up(), Vec3::Z, front_face, |b| gltf(b, p, Vec3::Z))
+}
+
+/// The BSDF in `frame` with geometric normal `ng` that `add` fills.
+fn built(frame: Frame, ng: Vec3, front_face: bool, add: impl FnOnce(&mut Bsdf)) -> Bsdf {
+    let mut b = Bsdf::new(frame, ng, front_face);
+    add(&mut b);
+    b
 }
 
 fn chi2(b: &Bsdf, wo: Vec3) -> Chi2Result {
@@ -70,7 +77,7 @@ fn chi2_lecture_lobes() {
         transmission: Vec3::splat(0.2),
         ior: 1.5,
     };
-    assert_chi2("lecture mixture", &lecture(&p, up(), Vec3::Z, true), dir(0.7));
+    assert_chi2("lecture mixture", &built(up(), Vec3::Z, true, |b| lecture(b, &p)), dir(0.7));
 }
 
 #[test]
@@ -186,7 +193,8 @@ fn samples_agree_with_eval_and_pdf() {
 fn reflection_is_reciprocal_and_transmission_obeys_eta_squared() {
     let mut rng = Pcg64Mcg::seed_from_u64(5);
     for (name, p) in materials() {
-        let (outside, inside) = (gltf_up(&p, true), gltf(&p, Frame::from_normal(-Vec3::Z), -Vec3::Z, -Vec3::Z, false));
+        let (outside, inside) =
+            (gltf_up(&p, true), built(Frame::from_normal(-Vec3::Z), -Vec3::Z, false, |b| gltf(b, &p, -Vec3::Z)));
         let ior = p.ior;
         for _ in 0..500 {
             let (a, b) = (random_dir(&mut rng, 1.0), random_dir(&mut rng, 1.0));
@@ -213,7 +221,7 @@ fn reflection_is_reciprocal_and_transmission_obeys_eta_squared() {
         transmission: Vec3::ZERO,
         ior: 1.5,
     };
-    let b = lecture(&p, up(), Vec3::Z, true);
+    let b = built(up(), Vec3::Z, true, |b| lecture(b, &p));
     for _ in 0..500 {
         let (a, c) = (random_dir(&mut rng, 1.0), random_dir(&mut rng, 1.0));
         assert!((b.eval(a, c).sum() - b.eval(c, a).sum()).abs().max_element() < 1e-5);
@@ -270,7 +278,7 @@ fn white_furnace() {
         for r in roughness {
             print!("{r:>9}");
             let p = white(m, t, r);
-            let (b, ss) = (gltf_up(&p, front), gltf::build(&p, up(), Vec3::Z, Vec3::Z, front, false));
+            let (b, ss) = (gltf_up(&p, front), built(up(), Vec3::Z, front, |b| gltf::build(b, &p, Vec3::Z, false)));
             for mu in mus {
                 let (e, se) = furnace(&b, dir(mu));
                 let (e_ss, _) = furnace(&ss, dir(mu));
@@ -307,7 +315,7 @@ fn lecture_reproduces_whitted_optics() {
     let (albedo, ks, n) = (Vec3::new(0.5, 0.3, 0.1), Vec3::new(0.2, 0.3, 0.4), 25.0);
     let p =
         LectureParams { albedo, specular: ks, shininess: n, mirror: Vec3::ZERO, transmission: Vec3::ZERO, ior: 1.5 };
-    let b = lecture(&p, frame, ns, true);
+    let b = built(frame, ns, true, |b| lecture(b, &p));
     for _ in 0..1000 {
         let (wo, wi) = (frame.to_world(random_dir(&mut rng, 1.0)), frame.to_world(random_dir(&mut rng, 1.0)));
         let h = (wi + wo).normalize_or_zero();
@@ -328,7 +336,7 @@ fn lecture_reproduces_whitted_optics() {
             transmission: kt,
             ior,
         };
-        let b = lecture(&p, up(), Vec3::Z, front);
+        let b = built(up(), Vec3::Z, front, |b| lecture(b, &p));
         let (eta_i, eta_t) = if front { (1.0, ior) } else { (ior, 1.0) };
         for mu in [0.95f32, 0.6, 0.3, 0.1] {
             let wo = dir(mu);
@@ -426,7 +434,7 @@ fn appendix_b_matches_independent_reference() {
         // strahl's metal, uncompensated, is Appendix B's exactly; compensated it adds the
         // multiple-scattering term; a dielectric's base is albedo-scaled instead of (1 − F).
         let p = PbrParams { base_color: base, metallic: m, roughness: r, ..Default::default() };
-        let ss = gltf::build(&p, up(), Vec3::Z, Vec3::Z, true, false).eval(wo, wi).sum();
+        let ss = built(up(), Vec3::Z, true, |b| gltf::build(b, &p, Vec3::Z, false)).eval(wo, wi).sum();
         let full = gltf_up(&p, true).eval(wo, wi).sum();
         if m == 1.0 {
             let rel = ((ss - want).abs() / want).max_element();
@@ -480,7 +488,7 @@ fn a_tilted_clearcoat_reflects_about_its_own_normal() {
         clearcoat_roughness: 0.3,
         ..Default::default()
     };
-    let b = gltf(&coated, up(), n, Vec3::Z, true);
+    let b = built(up(), Vec3::Z, true, |b| gltf(b, &coated, n));
     assert!(matches!(b.lobes().last(), Some(Lobe::Tilted(_))), "{b:?}");
     assert!(matches!(gltf_up(&coated, true).lobes().last(), Some(Lobe::Microfacet(_))));
     for mu in [0.9, 0.4] {
@@ -509,7 +517,7 @@ fn a_tilted_clearcoat_reflects_about_its_own_normal() {
     };
     // (The geometric normal is the coat's here, so that no part of the coat's lobe goes into
     // the surface, where the untilted coat's would not.)
-    let (tilted, straight) = (gltf(&coat_only, up(), n, n, true), gltf_up(&coat_only, true));
+    let (tilted, straight) = (built(up(), n, true, |b| gltf(b, &coat_only, n)), gltf_up(&coat_only, true));
     let coat_frame = Frame::from_normal(n);
     for wo in [dir(0.9), dir(0.5), Vec3::new(0.2, -0.4, 0.894).normalize()] {
         let ((e, se), (e0, se0)) = (furnace(&tilted, wo), furnace(&straight, coat_frame.to_local(wo)));
@@ -520,7 +528,7 @@ fn a_tilted_clearcoat_reflects_about_its_own_normal() {
     // follow; here the coat's normal is the geometric one): it still reflects into directions
     // below the base's horizon that leave the surface, as much as the coat alone does.
     let lean = Frame::from_normal(Vec3::new(0.5, 0.0, 0.866).normalize());
-    let under_lean = gltf(&coat_only, lean, Vec3::Z, Vec3::Z, true);
+    let under_lean = built(lean, Vec3::Z, true, |b| gltf(b, &coat_only, Vec3::Z));
     let wo = Vec3::new(0.966, 0.0, 0.259).normalize();
     let ((e, se), (e0, se0)) = (furnace(&under_lean, wo), furnace(&straight, wo));
     println!("coat over a leaning base from {wo}: {e:.5} ± {se:.5}, the coat alone {e0:.5} ± {se0:.5}");
@@ -532,7 +540,7 @@ fn a_tilted_clearcoat_reflects_about_its_own_normal() {
         assert!((s.f - f).abs().max_element() <= 1e-4 * f.max_element().max(1e-3), "f {} vs {f}", s.f);
         assert!((s.pdf - pdf).abs() <= 1e-4 * pdf, "pdf {} vs {pdf}", s.pdf);
     }
-    let smooth = gltf(&PbrParams { clearcoat_roughness: 0.0, ..coat_only }, up(), n, Vec3::Z, true);
+    let smooth = built(up(), Vec3::Z, true, |b| gltf(b, &PbrParams { clearcoat_roughness: 0.0, ..coat_only }, n));
     for wo in [dir(0.9), dir(0.5)] {
         let s = smooth.sample(wo, 0.5, Vec2::splat(0.5)).unwrap();
         assert!(s.flags.is_specular());

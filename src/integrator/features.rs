@@ -35,7 +35,7 @@ use crate::accel::{Accel, Hit, TraceError};
 use crate::integrator::RayCounts;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::scene::Scene;
-use crate::shading::shade_at;
+use crate::shading::{Shading, shade_at};
 use crate::surface::SurfacePoint;
 
 /// The most rays traced for one camera ray's features, beyond the camera ray.
@@ -84,6 +84,7 @@ pub fn denoising_features<A: Accel>(
     let mut traced = 0;
     // Depth first, reflection before refraction: the same order, so the same sums, every time.
     let mut stack = vec![(*ray, hit.copied(), Vec3::ONE, 0u32)];
+    let mut shading = Shading::default();
     while let Some((ray, hit, carried, depth)) = stack.pop() {
         let weight = carried.element_sum() / 3.0;
         let Some(h) = hit else {
@@ -92,7 +93,7 @@ pub fn denoising_features<A: Accel>(
             continue;
         };
         let sp = SurfacePoint::new(scene, &ray, &h);
-        let shading = shade_at(scene, &sp, -ray.dir, 0.0);
+        shade_at(scene, &sp, -ray.dir, 0.0, &mut shading);
         albedo += carried * as_albedo(shading.emission);
         let split = shading.bsdf.denoising_split(-ray.dir);
         let branches = [split.reflect, split.transmit];

@@ -67,7 +67,7 @@ use crate::bsdf::{BsdfEval, LobeFlags};
 use crate::math::{Ray, Vec2, Vec3, offset_ray_origin};
 use crate::sampling::sobol::{CAMERA_DIMS, Sobol};
 use crate::scene::Scene;
-use crate::shading::shade_at;
+use crate::shading::{Shading, shade_at};
 use crate::surface::SurfacePoint;
 
 /// Vertices before Russian roulette may end a path (module docs).
@@ -214,6 +214,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut medium: Option<Vec3> = None;
         // The lobe families the first hit's scattering went to, per channel (module docs).
         let mut family = BsdfEval::default();
+        let mut shading = Shading::default();
         let mut depth = 0u32;
         loop {
             if let Some(sigma_a) = medium {
@@ -239,7 +240,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             };
             let wo = -ray.dir;
             let footprint = if depth == 0 { self.cone.width_at(sp.t * ray.dir.length()) } else { 0.0 };
-            let shading = shade_at(scene, &sp, wo, footprint);
+            shade_at(scene, &sp, wo, footprint, &mut shading);
             if depth == 0 {
                 first = Some(FirstHit::new(&sp, &h, shading.bsdf.colors()));
             }
