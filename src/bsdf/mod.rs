@@ -560,6 +560,12 @@ impl Bsdf {
     #[inline]
     fn eval_local<const TILTED: bool>(&self, wo: Vec3, wi: Vec3, transmitted: bool) -> BsdfEval {
         let mut out = BsdfEval::default();
+        if let (false, [lobe]) = (TILTED, self.lobes()) {
+            // A lone lobe has nothing above it (its layering factor is 1): the loop below
+            // with its scales left out, the same values.
+            out.add(lobe.class(transmitted), lobe.eval(wo, wi));
+            return out;
+        }
         let scales = if TILTED {
             self.scales_tilted(wo, Vec3::new(wi.x, wi.y, wi.z.abs()))
         } else {
@@ -593,6 +599,9 @@ impl Bsdf {
     /// probabilities `p` at `wo` ([`Bsdf::selection`]).
     #[inline]
     fn pdf_local<const TILTED: bool>(&self, wo: Vec3, wi: Vec3, transmitted: bool, p: &[f32; MAX_LOBES]) -> f32 {
+        if let (false, [lobe]) = (TILTED, self.lobes()) {
+            return if p[0] > 0.0 { p[0] * lobe.pdf(wo, wi) } else { 0.0 };
+        }
         let below = TILTED && !transmitted && wi.z < 0.0;
         self.lobes()
             .iter()

@@ -262,8 +262,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             }
             s.start_bounce(depth);
             let u_light = s.next_2d();
-            let u_select = s.next_1d();
-            let u_roulette = s.next_1d();
+            // Two 1-D draws from one pair of dimensions: the values `next_1d` twice would give,
+            // the pair's seed and shuffled index computed once.
+            let Vec2 { x: u_select, y: u_roulette } = s.next_2d();
             let u_bsdf = s.next_2d();
             let u_lobe = s.next_1d();
             let bsdf = &shading.bsdf;
