@@ -557,15 +557,24 @@ impl Bsdf {
     /// [`Bsdf::eval`] of a pair already in local coordinates ([`Bsdf::local_pair`]); `TILTED`:
     /// whether the BSDF has a [`Lobe::Tilted`] (the check of which lobes see the pair is left
     /// out of the common case).
-    #[inline]
+    #[inline(always)]
     fn eval_local<const TILTED: bool>(&self, wo: Vec3, wi: Vec3, transmitted: bool) -> BsdfEval {
-        let mut out = BsdfEval::default();
-        if let (false, [lobe]) = (TILTED, self.lobes()) {
-            // A lone lobe has nothing above it (its layering factor is 1): the loop below
-            // with its scales left out, the same values.
-            out.add(lobe.class(transmitted), lobe.eval(wo, wi));
-            return out;
+        match (TILTED, self.lobes()) {
+            // A lone lobe has nothing above it (its layering factor is 1): the mixture's sum
+            // with its scales left out, the same values, inlined into the caller.
+            (false, [lobe]) => {
+                let mut out = BsdfEval::default();
+                out.add(lobe.class(transmitted), lobe.eval(wo, wi));
+                out
+            }
+            _ => self.eval_mixture::<TILTED>(wo, wi, transmitted),
         }
+    }
+
+    /// [`Bsdf::eval_local`] of any BSDF: the lobes' values, scaled by the layers above them.
+    #[inline(never)]
+    fn eval_mixture<const TILTED: bool>(&self, wo: Vec3, wi: Vec3, transmitted: bool) -> BsdfEval {
+        let mut out = BsdfEval::default();
         let scales = if TILTED {
             self.scales_tilted(wo, Vec3::new(wi.x, wi.y, wi.z.abs()))
         } else {
@@ -597,11 +606,24 @@ impl Bsdf {
 
     /// [`Bsdf::pdf`] of a pair already in local coordinates, with the lobes' selection
     /// probabilities `p` at `wo` ([`Bsdf::selection`]).
-    #[inline]
+    #[inline(always)]
     fn pdf_local<const TILTED: bool>(&self, wo: Vec3, wi: Vec3, transmitted: bool, p: &[f32; MAX_LOBES]) -> f32 {
-        if let (false, [lobe]) = (TILTED, self.lobes()) {
-            return if p[0] > 0.0 { p[0] * lobe.pdf(wo, wi) } else { 0.0 };
+        match (TILTED, self.lobes()) {
+            // A lone lobe: the mixture's sum of one term, inlined into the caller.
+            (false, [lobe]) => {
+                if p[0] > 0.0 {
+                    p[0] * lobe.pdf(wo, wi)
+                } else {
+                    0.0
+                }
+            }
+            _ => self.pdf_mixture::<TILTED>(wo, wi, transmitted, p),
         }
+    }
+
+    /// [`Bsdf::pdf_local`] of any BSDF: the lobes' densities weighted by their selection.
+    #[inline(never)]
+    fn pdf_mixture<const TILTED: bool>(&self, wo: Vec3, wi: Vec3, transmitted: bool, p: &[f32; MAX_LOBES]) -> f32 {
         let below = TILTED && !transmitted && wi.z < 0.0;
         self.lobes()
             .iter()
