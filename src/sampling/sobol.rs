@@ -80,8 +80,9 @@ fn splitmix64(x: u64) -> u64 {
 pub struct Sobol {
     /// The pixel's hash.
     pixel: u64,
-    /// The pixel's sample number (the sequence index).
-    sample: u32,
+    /// The pixel's sample number (the sequence index), bit-reversed as `sobol_burley` takes it
+    /// (every pair of dimensions of the sample starts from it: reversed once per sample).
+    index_rev: u32,
     /// The next dimension to draw.
     dim: u32,
 }
@@ -89,13 +90,13 @@ pub struct Sobol {
 impl Sobol {
     /// The sampler of the pixel with index `pixel_index` (`y·W + x`).
     pub fn new(pixel_index: u64) -> Self {
-        Sobol { pixel: splitmix64(pixel_index), sample: 0, dim: 0 }
+        Sobol { pixel: splitmix64(pixel_index), index_rev: 0, dim: 0 }
     }
 
     /// Starts the pixel's sample `sample` (< [`MAX_SAMPLES`]) at dimension 0.
     pub fn start_sample(&mut self, sample: u32) {
         debug_assert!(sample < MAX_SAMPLES);
-        self.sample = sample;
+        self.index_rev = (sample & (MAX_SAMPLES - 1)).reverse_bits();
         self.dim = 0;
     }
 
@@ -114,8 +115,7 @@ impl Sobol {
     #[inline]
     fn pair(&self, d: u32) -> (u32, u32) {
         let seed = splitmix64(self.pixel.wrapping_add(d as u64 / 2)) as u32;
-        let index_rev = (self.sample & (MAX_SAMPLES - 1)).reverse_bits();
-        (seed, parts::owen_scramble_rev(index_rev, parts::hash(seed ^ 0x79c6_8e4a)))
+        (seed, parts::owen_scramble_rev(self.index_rev, parts::hash(seed ^ 0x79c6_8e4a)))
     }
 
     /// The value of dimension `d` at the current sample, in `[0, 1)`:
