@@ -15,23 +15,26 @@
 //!   transmitted part is counted in energy (radiance × `(η_o/η_i)²`, see [`super::glass`]).
 //! * **Sheen** ([`super::sheen`]): the Charlie lobe's albedo over `(μ, sheen roughness)`.
 //!
-//! Each table is computed at its first use (a `OnceLock`) by fixed quadrature, nothing random:
-//! the microfacet albedos integrate `F·G₂/G₁` over the unit square warped to the visible
-//! normals (`E = ∫ D_o(h) F G₂/G₁ dh`, smooth in the warp's variables at any roughness) with a
+//! Each table is computed by fixed quadrature, nothing random (`quadrature::computed`): the microfacet
+//! albedos integrate `F·G₂/G₁` over the unit square warped to the visible normals
+//! (`E = ∫ D_o(h) F G₂/G₁ dh`, smooth in the warp's variables at any roughness) with a
 //! Gauss–Legendre product rule, the sheen albedo integrates `f cos θi` over `(cos θi, φ)`.
 //! Lookups interpolate bilinearly over `(μ, roughness)`; `Ē` is the exact average of that
 //! interpolant (piecewise linear in `μ`), so a lobe built as `(1 − E(μo))(1 − E(μi))/(1 − Ē)`
-//! reflects exactly `1 − E(μo)` of what the table says. Build times (printed by
-//! `tables_build`, test profile at opt-level 3, one thread of a loaded 2-core machine):
-//! GGX 477 ms, the two glass slices one index needs 491 ms, sheen 435 ms; an unoptimised
-//! build takes several times longer.
+//! reflects exactly `1 − E(μo)` of what the table says.
+//!
+//! **Shipped, not built per process.** The quadrature costs seconds of CPU (release build, one
+//! thread: GGX about 0.15 s, the two glass slices of one index about as much, sheen a little
+//! less), which every render paid at its first microfacet lobe: most of a small render's time,
+//! and again in every tile process of a farm. The tables' values are computed once and stored
+//! in `albedo_tables.bin` (the 35 tables of 32 × 32 little-endian `f32`, in the order of
+//! `quadrature::computed`, compiled for the tests; the averages are recomputed from them at
+//! load), read at first use (a `OnceLock`).
+//! The test `shipped_tables_are_the_quadrature` computes every table again and compares; after
+//! a change to a lobe or to the quadrature, write the file again with
+//! `cargo test --release --lib -- --ignored write_albedo_tables`.
 
 use std::sync::OnceLock;
-
-use super::ggx::Ggx;
-use super::{fresnel, glass, sheen};
-use crate::math::{Vec2, Vec3};
-use crate::sampling::quadrature::gauss_legendre;
 
 /// Nodes over `μ = cos θo ∈ [0, 1]` and over roughness `∈ [0, 1]`.
 pub const N_MU: usize = 32;
@@ -40,8 +43,6 @@ pub const N_ROUGH: usize = 32;
 pub const N_ETA: usize = 16;
 /// The largest relative index the glass tables cover; beyond it the last node is used.
 pub const MAX_ETA: f32 = 3.0;
-/// The smallest `μ` integrated (at grazing the albedo is continuous, `μ = 0` itself is singular).
-const MU_MIN: f32 = 1e-3;
 
 /// A table over `(μ, roughness)` with the hemispherical average per roughness node.
 #[derive(Debug)]
@@ -51,16 +52,8 @@ pub struct Table {
 }
 
 impl Table {
-    /// Fills the table with `f(μ, roughness)` at the nodes.
-    fn build(f: impl Fn(f32, f32) -> f64) -> Table {
-        let mut values = vec![0.0; N_MU * N_ROUGH];
-        for j in 0..N_ROUGH {
-            let r = j as f32 / (N_ROUGH - 1) as f32;
-            for i in 0..N_MU {
-                let mu = (i as f32 / (N_MU - 1) as f32).max(MU_MIN);
-                values[j * N_MU + i] = f(mu, r) as f32;
-            }
-        }
+    /// The table of `values` at the nodes (`N_ROUGH` rows of `N_MU`), with its averages.
+    fn from_values(values: Vec<f32>) -> Table {
         // Ē = 2∫ E μ dμ of the piecewise linear interpolant, segment by segment.
         let h = 1.0 / (N_MU - 1) as f64;
         let averages = (0..N_ROUGH)
@@ -113,52 +106,10 @@ pub struct GgxAlbedo {
     pub b: Table,
 }
 
-/// `∫ over the visible normals of wo` of `g(h)`, by the `n × n` Gauss–Legendre rule.
-fn integrate_visible(ggx: Ggx, wo: Vec3, rule: &(Vec<f64>, Vec<f64>), mut g: impl FnMut(Vec3) -> f64) -> f64 {
-    let (x, w) = rule;
-    let mut sum = 0.0;
-    for (xa, wa) in x.iter().zip(w) {
-        for (xb, wb) in x.iter().zip(w) {
-            let h = ggx.sample_visible(wo, Vec2::new(*xa as f32, *xb as f32));
-            sum += wa * wb * g(h);
-        }
-    }
-    sum
-}
-
-/// The direction at `cos θ = mu` in the `xz` plane.
-#[inline]
-fn at(mu: f32) -> Vec3 {
-    Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu)
-}
-
-/// The GGX reflection tables (built at first use).
+/// The GGX reflection tables (read at first use).
 pub fn ggx() -> &'static GgxAlbedo {
     static TABLES: OnceLock<GgxAlbedo> = OnceLock::new();
-    TABLES.get_or_init(|| {
-        let rule = gauss_legendre(48);
-        // The albedo for F = F₀ (which = 0: weight 1 − s) or F = F₉₀ (which = 1: weight s).
-        let part = |mu: f32, r: f32, which: usize| -> f64 {
-            if r == 0.0 {
-                // The smooth limit: a mirror with Schlick's F at θo.
-                let s = fresnel::schlick_weight(mu) as f64;
-                return if which == 0 { 1.0 - s } else { s };
-            }
-            let ggx = Ggx::from_roughness(r);
-            let wo = at(mu);
-            let g1 = ggx.g1(wo) as f64;
-            integrate_visible(ggx, wo, &rule, |h| {
-                let wi = 2.0 * wo.dot(h) * h - wo;
-                if wi.z <= 0.0 {
-                    return 0.0;
-                }
-                let w = ggx.g2(wo, wi) as f64 / g1;
-                let s = fresnel::schlick_weight(wo.dot(h)) as f64;
-                if which == 0 { w * (1.0 - s) } else { w * s }
-            })
-        };
-        GgxAlbedo { a: Table::build(|mu, r| part(mu, r, 0)), b: Table::build(|mu, r| part(mu, r, 1)) }
-    })
+    TABLES.get_or_init(|| GgxAlbedo { a: shipped(GGX_A), b: shipped(GGX_B) })
 }
 
 /// The glass albedo at one relative index: the two neighbouring `η` slices and the weight
@@ -195,27 +146,133 @@ pub fn glass(eta: f32) -> GlassAlbedo {
     let x = ((ratio - 1.0) / (MAX_ETA - 1.0)).clamp(0.0, 1.0) * (N_ETA - 1) as f32;
     let k = (x as usize).min(N_ETA - 2);
     let slice = |k: usize| -> &'static Table {
-        SLICES[denser as usize][k].get_or_init(|| {
-            let node = 1.0 + (MAX_ETA - 1.0) * k as f32 / (N_ETA - 1) as f32;
-            let eta = if denser { 1.0 / node } else { node };
-            let rule = gauss_legendre(32);
-            Table::build(|mu, r| {
-                let ggx = Ggx::from_roughness(r.max(glass::TABLE_MIN_ROUGHNESS));
-                let wo = at(mu);
-                let g1 = ggx.g1(wo) as f64;
-                integrate_visible(ggx, wo, &rule, |h| glass::single_scattering_weight(ggx, eta, wo, h) as f64 / g1)
-            })
-        })
+        SLICES[denser as usize][k].get_or_init(|| shipped(GLASS + denser as usize * N_ETA + k))
     };
     GlassAlbedo { lo: slice(k), hi: slice(k + 1), t: x - k as f32 }
 }
 
-/// The sheen albedo table over `(μ, sheen roughness)` (built at first use).
+/// The sheen albedo table over `(μ, sheen roughness)` (read at first use).
 pub fn sheen() -> &'static Table {
     static TABLE: OnceLock<Table> = OnceLock::new();
-    TABLE.get_or_init(|| {
+    TABLE.get_or_init(|| shipped(SHEEN))
+}
+
+/// The shipped tables' indices (module docs): GGX `A`, `B`, the glass slices (from the less
+/// dense side, `η` nodes 0 … N_ETA − 1, then from the denser side), sheen.
+const GGX_A: usize = 0;
+const GGX_B: usize = 1;
+const GLASS: usize = 2;
+const SHEEN: usize = GLASS + 2 * N_ETA;
+/// How many tables are shipped.
+pub(crate) const N_TABLES: usize = SHEEN + 1;
+
+/// The shipped values (module docs).
+const SHIPPED: &[u8] = include_bytes!("albedo_tables.bin");
+const _: () = assert!(SHIPPED.len() == N_TABLES * N_MU * N_ROUGH * 4, "albedo_tables.bin is not the tables' size");
+
+/// Table `index` as shipped.
+fn shipped(index: usize) -> Table {
+    let size = N_MU * N_ROUGH * 4;
+    let bytes = &SHIPPED[index * size..(index + 1) * size];
+    Table::from_values(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
+}
+
+/// The tables by quadrature (module docs): compiled for the tests, which compare the shipped
+/// tables with them and write them.
+#[cfg(test)]
+pub(crate) mod quadrature {
+    use super::super::ggx::Ggx;
+    use super::super::{fresnel, glass, sheen};
+    use super::{GGX_A, GGX_B, GLASS, MAX_ETA, N_ETA, N_MU, N_ROUGH, SHEEN, Table};
+    use crate::math::{Vec2, Vec3};
+    use crate::sampling::quadrature::gauss_legendre;
+
+    /// The smallest `μ` integrated (at grazing the albedo is continuous, `μ = 0` itself is singular).
+    const MU_MIN: f32 = 1e-3;
+
+    /// The glass tables are integrated from this roughness up (smoother glass is a delta interface).
+    const GLASS_MIN_ROUGHNESS: f32 = 0.02;
+
+    /// Fills a table with `f(μ, roughness)` at the nodes.
+    pub(super) fn build(f: impl Fn(f32, f32) -> f64) -> Table {
+        let mut values = vec![0.0; N_MU * N_ROUGH];
+        for j in 0..N_ROUGH {
+            let r = j as f32 / (N_ROUGH - 1) as f32;
+            for i in 0..N_MU {
+                let mu = (i as f32 / (N_MU - 1) as f32).max(MU_MIN);
+                values[j * N_MU + i] = f(mu, r) as f32;
+            }
+        }
+        Table::from_values(values)
+    }
+
+    /// `∫ over the visible normals of wo` of `g(h)`, by the `n × n` Gauss–Legendre rule.
+    pub(super) fn integrate_visible(
+        ggx: Ggx,
+        wo: Vec3,
+        rule: &(Vec<f64>, Vec<f64>),
+        mut g: impl FnMut(Vec3) -> f64,
+    ) -> f64 {
+        let (x, w) = rule;
+        let mut sum = 0.0;
+        for (xa, wa) in x.iter().zip(w) {
+            for (xb, wb) in x.iter().zip(w) {
+                let h = ggx.sample_visible(wo, Vec2::new(*xa as f32, *xb as f32));
+                sum += wa * wb * g(h);
+            }
+        }
+        sum
+    }
+
+    /// The direction at `cos θ = mu` in the `xz` plane.
+    #[cfg(test)]
+    #[inline]
+    pub(super) fn at(mu: f32) -> Vec3 {
+        Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu)
+    }
+
+    /// The GGX reflection table `A` (`which` = 0) or `B` (1), by quadrature.
+    fn ggx_part(which: usize) -> Table {
+        let rule = gauss_legendre(48);
+        // The albedo for F = F₀ (which = 0: weight 1 − s) or F = F₉₀ (which = 1: weight s).
+        build(|mu: f32, r: f32| -> f64 {
+            if r == 0.0 {
+                // The smooth limit: a mirror with Schlick's F at θo.
+                let s = fresnel::schlick_weight(mu) as f64;
+                return if which == 0 { 1.0 - s } else { s };
+            }
+            let ggx = Ggx::from_roughness(r);
+            let wo = at(mu);
+            let g1 = ggx.g1(wo) as f64;
+            integrate_visible(ggx, wo, &rule, |h| {
+                let wi = 2.0 * wo.dot(h) * h - wo;
+                if wi.z <= 0.0 {
+                    return 0.0;
+                }
+                let w = ggx.g2(wo, wi) as f64 / g1;
+                let s = fresnel::schlick_weight(wo.dot(h)) as f64;
+                if which == 0 { w * (1.0 - s) } else { w * s }
+            })
+        })
+    }
+
+    /// The glass table at `η` node `k`, for light from the denser side or not, by quadrature.
+    fn glass_slice(denser: bool, k: usize) -> Table {
+        let node = 1.0 + (MAX_ETA - 1.0) * k as f32 / (N_ETA - 1) as f32;
+        let eta = if denser { 1.0 / node } else { node };
+        let rule = gauss_legendre(32);
+        build(|mu, r| {
+            let ggx = Ggx::from_roughness(r.max(GLASS_MIN_ROUGHNESS));
+            let wo = at(mu);
+            let g1 = ggx.g1(wo) as f64;
+            integrate_visible(ggx, wo, &rule, |h| glass::single_scattering_weight(ggx, eta, wo, h) as f64 / g1)
+        })
+    }
+
+    /// The sheen table, by quadrature.
+    fn sheen_table() -> Table {
         let (x, w) = gauss_legendre(64);
-        Table::build(|mu, r| {
+        build(|mu, r| {
             let lobe = sheen::Sheen::new(Vec3::ONE, r);
             let wo = at(mu);
             let mut sum = 0.0;
@@ -231,12 +288,61 @@ pub fn sheen() -> &'static Table {
             }
             sum * 2.0 * std::f64::consts::PI
         })
-    })
+    }
+
+    /// Table `index` (in the shipped order) computed by quadrature.
+    pub(crate) fn computed(index: usize) -> Table {
+        match index {
+            GGX_A | GGX_B => ggx_part(index - GGX_A),
+            SHEEN => sheen_table(),
+            _ => {
+                let k = index - GLASS;
+                glass_slice(k >= N_ETA, k % N_ETA)
+            }
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The values of every table as `computed` gives them, in the shipped file's layout.
+    fn computed_bytes() -> Vec<u8> {
+        use rayon::prelude::*;
+        let tables: Vec<Table> = (0..N_TABLES).into_par_iter().map(quadrature::computed).collect();
+        tables.iter().flat_map(|t| t.values.iter().flat_map(|v| v.to_le_bytes())).collect()
+    }
+
+    /// Writes `albedo_tables.bin` again (module docs).
+    #[test]
+    #[ignore = "writes src/bsdf/albedo_tables.bin: run after a change to a lobe or the quadrature"]
+    fn write_albedo_tables() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/bsdf/albedo_tables.bin");
+        std::fs::write(path, computed_bytes()).unwrap();
+    }
+
+    /// The shipped tables are what the quadrature gives (to the last bit on the machine that
+    /// wrote them; within 1e-6 where another libm rounds a sine differently).
+    #[test]
+    fn shipped_tables_are_the_quadrature() {
+        let t = std::time::Instant::now();
+        let fresh = computed_bytes();
+        println!("all {N_TABLES} tables by quadrature: {:?}", t.elapsed());
+        let value = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let (mut worst, mut differ) = (0.0f32, 0);
+        for (i, (a, b)) in SHIPPED.chunks_exact(4).zip(fresh.chunks_exact(4)).enumerate() {
+            let (a, b) = (value(a), value(b));
+            assert!(a.is_finite(), "shipped value {i} is {a}");
+            differ += usize::from(a.to_bits() != b.to_bits());
+            worst = worst.max((a - b).abs());
+        }
+        println!("{differ} of {} values differ in their bits, by at most {worst:e}", SHIPPED.len() / 4);
+        assert!(worst <= 1e-6, "albedo_tables.bin is stale (largest difference {worst:e}): see the module docs");
+        // The averages come from the values: the shipped table's are the computed table's.
+        let (shipped, computed) = (super::shipped(GGX_A), quadrature::computed(GGX_A));
+        assert!(shipped.averages.iter().zip(&computed.averages).all(|(a, b)| (a - b).abs() <= 1e-6));
+    }
 
     #[test]
     fn tables_build() {
@@ -249,7 +355,7 @@ mod tests {
         let t = std::time::Instant::now();
         let s = sheen();
         let t_sheen = t.elapsed();
-        println!("table build: GGX {t_ggx:?}, glass (two η slices) {t_glass:?}, sheen {t_sheen:?}");
+        println!("tables read: GGX {t_ggx:?}, glass (two η slices) {t_glass:?}, sheen {t_sheen:?}");
         // Sanity: a smooth white mirror reflects everything; rough GGX loses energy at grazing.
         assert!((g.a.lookup(0.7, 0.0) + g.b.lookup(0.7, 0.0) - 1.0).abs() < 1e-6);
         let e = g.a.lookup(0.2, 1.0) + g.b.lookup(0.2, 1.0);
@@ -267,13 +373,14 @@ mod glass_table_tests {
     /// from inside 0.9167).
     #[test]
     fn glass_table_matches_direct_quadrature() {
-        let rule = gauss_legendre(32);
+        let rule = crate::sampling::quadrature::gauss_legendre(32);
         for (eta, want) in [(1.5f32, 0.9525f32), (1.0 / 1.5, 0.9167)] {
-            let ggx = Ggx::from_roughness(0.25);
-            let wo = at(0.15);
+            let ggx = super::super::ggx::Ggx::from_roughness(0.25);
+            let wo = quadrature::at(0.15);
             let g1 = ggx.g1(wo) as f64;
-            let direct =
-                integrate_visible(ggx, wo, &rule, |h| glass::single_scattering_weight(ggx, eta, wo, h) as f64 / g1);
+            let direct = quadrature::integrate_visible(ggx, wo, &rule, |h| {
+                super::super::glass::single_scattering_weight(ggx, eta, wo, h) as f64 / g1
+            });
             let t = glass(eta);
             println!("η {eta}: table {} direct {direct} numpy {want}, Ē {}", t.lookup(0.15, 0.25), t.average(0.25));
             assert!((direct as f32 - want).abs() < 2e-3);

@@ -43,7 +43,7 @@
 use std::f32::consts::FRAC_1_PI;
 
 use super::albedo::{self, GlassAlbedo};
-use super::fresnel::{f0_from_ior, schlick_dielectric};
+use super::fresnel::schlick_dielectric;
 use super::ggx::Ggx;
 use super::{LobeFlags, LobeSample};
 use crate::math::{Vec2, Vec3};
@@ -52,9 +52,6 @@ use crate::sampling::square_to_cosine_hemisphere;
 
 /// The least probability of sampling the multiple-scattering lobes (see `Glass::ms_probability`).
 const MS_MIN_PROBABILITY: f32 = 0.05;
-
-/// The glass tables are integrated from this roughness up (smoother glass is a delta interface).
-pub const TABLE_MIN_ROUGHNESS: f32 = 0.02;
 
 /// Refraction of `wo` (pointing away) through a microfacet `h` on its side, for
 /// `eta = η_other/η_this`; `None` under total internal reflection.
@@ -65,13 +62,15 @@ pub fn refract(wo: Vec3, h: Vec3, eta: f32) -> Option<Vec3> {
 
 /// `F G₂ + (1 − F) G₂` of the reflected and refracted directions at microfacet `h` (the weights
 /// `f |cos θi| / D_o(h)·G₁(o)` of visible-normal samples, in energy units), with `F₀` from `η`:
-/// what [`albedo::glass`] integrates.
+/// what the quadrature of [`albedo::glass`]'s tables integrates (compiled for the tests,
+/// which compute those tables).
+#[cfg(test)]
 pub fn single_scattering_weight(ggx: Ggx, eta: f32, wo: Vec3, h: Vec3) -> f32 {
     let c = wo.dot(h);
     if c <= 0.0 {
         return 0.0;
     }
-    let f = schlick_dielectric(f0_from_ior(eta), 1.0, c, eta);
+    let f = schlick_dielectric(super::fresnel::f0_from_ior(eta), 1.0, c, eta);
     let mut w = 0.0;
     let wr = 2.0 * c * h - wo;
     if wr.z > 0.0 {
