@@ -58,7 +58,7 @@ pub struct Shading {
 /// Sets `out` to the BSDF, emission and volume of `sp` seen along `wo` (towards the viewer);
 /// `footprint` is the ray's width at the hit (world units; 0: a point sample). The material
 /// must exist: the scene is checked before rendering. `out` is filled in place, the caller's
-/// one per path: a BSDF is 632 bytes, and returning a new one was a `memcpy` per vertex.
+/// one per path: a BSDF is 632 bytes, and returning a new one would copy it at every vertex.
 pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32, out: &mut Shading) {
     let m = &scene.materials[sp.material as usize];
     let coords = tex_coords(sp, wo, footprint);

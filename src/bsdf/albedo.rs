@@ -23,10 +23,10 @@
 //! interpolant (piecewise linear in `μ`), so a lobe built as `(1 − E(μo))(1 − E(μi))/(1 − Ē)`
 //! reflects exactly `1 − E(μo)` of what the table says.
 //!
-//! **Shipped, not built per process.** The quadrature costs seconds of CPU (release build, one
-//! thread: GGX about 0.15 s, the two glass slices of one index about as much, sheen a little
-//! less), which every render paid at its first microfacet lobe: most of a small render's time,
-//! and again in every tile process of a farm. The tables' values are computed once and stored
+//! **Shipped, not built per process.** The quadrature costs tenths of a second of CPU (release
+//! build, one thread: GGX about 0.15 s, the two glass slices of one index about as much, sheen
+//! a little less), which a render would pay at its first microfacet lobe: most of a small
+//! render's time, and again in every tile process of a farm. The tables' values are computed once and stored
 //! in `albedo_tables.bin` (the 35 tables of 32 × 32 little-endian `f32`, in the order of
 //! `quadrature::computed`, compiled for the tests; the averages are recomputed from them at
 //! load), read at first use (a `OnceLock`).
