@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles bench-mitsuba bench-pathtracer clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles bench-mitsuba bench-pathtracer albedo-tables clean
 
 all: build
 
@@ -289,6 +289,12 @@ bench-pathtracer: deps test-deps
 	@python3 -c "import numpy, OpenEXR" 2>/dev/null || { echo "bench-pathtracer: python3 cannot import numpy and OpenEXR (pip install numpy OpenEXR)" >&2; exit 1; }
 	$(MAKE) --no-print-directory build
 	python3 tools/bench/pathtracer_time.py --strahl $(STRAHL)
+
+# Write src/bsdf/albedo_tables.bin again from the quadrature (bsdf::albedo: after a change to a
+# microfacet or sheen lobe, or to the quadrature; the test shipped_tables_are_the_quadrature
+# fails until then). About 2 s of a release build's time.
+albedo-tables: deps
+	$(CARGO) test --release --locked --lib -- --ignored write_albedo_tables
 
 clean:
 	$(CARGO) clean

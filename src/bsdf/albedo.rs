@@ -31,8 +31,8 @@
 //! `quadrature::computed`, compiled for the tests; the averages are recomputed from them at
 //! load), read at first use (a `OnceLock`).
 //! The test `shipped_tables_are_the_quadrature` computes every table again and compares; after
-//! a change to a lobe or to the quadrature, write the file again with
-//! `cargo test --release --lib -- --ignored write_albedo_tables`.
+//! a change to a lobe or to the quadrature, write the file again with `make albedo-tables`
+//! (`cargo test --release --lib -- --ignored write_albedo_tables`).
 
 use std::sync::OnceLock;
 
@@ -316,7 +316,7 @@ mod tests {
 
     /// Writes `albedo_tables.bin` again (module docs).
     #[test]
-    #[ignore = "writes src/bsdf/albedo_tables.bin: run after a change to a lobe or the quadrature"]
+    #[ignore = "writes src/bsdf/albedo_tables.bin (make albedo-tables): after a change to a lobe or the quadrature"]
     fn write_albedo_tables() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/bsdf/albedo_tables.bin");
         std::fs::write(path, computed_bytes()).unwrap();
