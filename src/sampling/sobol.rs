@@ -33,7 +33,11 @@
 //! dimension is linear over GF(2) in the index's bits, so the point of a 16-bit index is the XOR
 //! of the points of its two bytes ([`PAIR_TABLE`], built from the two dimensions' direction
 //! numbers, `v_k = 2^k` and `v_k = v_{k−1} ⊕ 2·v_{k−1}`). The two values of a pair share their
-//! seed and shuffled index, computed once ([`Sobol::next_2d`]). The test
+//! seed and shuffled index, computed once ([`Sobol::next_2d`]). What a pair takes from the pixel
+//! alone, the hashes of its seed for the index shuffle and the two scrambles, is the same at
+//! every sample: a pixel's sampler keeps them for the first `KEPT_PAIRS` pairs (the camera's and
+//! eight bounces'; 432 bytes a pixel, for the pixels of the tiles being traced), so a sample
+//! computes only what depends on its index. The test
 //! `values_are_the_crates_bit_for_bit` checks every index of the sequence against the crate.
 //!
 //! **Dimension bookkeeping** ([`Sobol::start_sample`], [`Sobol::start_bounce`]): dimensions 0–1
@@ -85,12 +89,46 @@ pub struct Sobol {
     index_rev: u32,
     /// The next dimension to draw.
     dim: u32,
+    /// How many of the pixel's first pairs `kept` holds.
+    known: u32,
+    /// What each of the first [`KEPT_PAIRS`] pairs of dimensions draws from the pixel alone,
+    /// the same at every sample: [`PairHashes`], computed at the pair's first draw.
+    kept: [PairHashes; KEPT_PAIRS],
+}
+
+/// The pairs whose hashes a pixel's sampler keeps: the camera's two and four per bounce for
+/// eight bounces (later pairs are hashed at every draw).
+const KEPT_PAIRS: usize = ((CAMERA_DIMS + 8 * DIMS_PER_BOUNCE) / 2) as usize;
+
+/// What a pair of dimensions takes from the pixel and the pair alone: the hash of the index
+/// shuffle and the hashes of its two dimensions' scrambles (`sobol_burley::sample`'s seeds).
+#[derive(Clone, Copy, Debug, Default)]
+struct PairHashes {
+    shuffle: u32,
+    scramble: [u32; 2],
+}
+
+impl PairHashes {
+    /// Pair `j`'s hashes for the pixel whose hash is `pixel`.
+    #[inline]
+    fn of(pixel: u64, j: u32) -> PairHashes {
+        let seed = splitmix64(pixel.wrapping_add(j as u64)) as u32;
+        let scramble =
+            |d: u32| parts::hash(seed.wrapping_mul(0x9c8f_2d3b) ^ if d == 0 { 0x912f_69ba } else { 0x174f_18ab });
+        PairHashes { shuffle: parts::hash(seed ^ 0x79c6_8e4a), scramble: [scramble(0), scramble(1)] }
+    }
 }
 
 impl Sobol {
     /// The sampler of the pixel with index `pixel_index` (`y·W + x`).
     pub fn new(pixel_index: u64) -> Self {
-        Sobol { pixel: splitmix64(pixel_index), index_rev: 0, dim: 0 }
+        Sobol {
+            pixel: splitmix64(pixel_index),
+            index_rev: 0,
+            dim: 0,
+            known: 0,
+            kept: [PairHashes::default(); KEPT_PAIRS],
+        }
     }
 
     /// Starts the pixel's sample `sample` (< [`MAX_SAMPLES`]) at dimension 0.
@@ -110,20 +148,27 @@ impl Sobol {
         self.dim = dim;
     }
 
-    /// The seed of the pair holding dimension `d` and the sample's index shuffled by it: what
-    /// both dimensions of the pair share (`sobol_burley::sample`'s first step).
+    /// The hashes of the pair `j` (dimensions `2j`, `2j + 1`): kept for the first
+    /// [`KEPT_PAIRS`], computed in order at their first draw.
     #[inline]
-    fn pair(&self, d: u32) -> (u32, u32) {
-        let seed = splitmix64(self.pixel.wrapping_add(d as u64 / 2)) as u32;
-        (seed, parts::owen_scramble_rev(self.index_rev, parts::hash(seed ^ 0x79c6_8e4a)))
+    fn hashes(&mut self, j: u32) -> PairHashes {
+        if j as usize >= KEPT_PAIRS {
+            return PairHashes::of(self.pixel, j);
+        }
+        while self.known <= j {
+            self.kept[self.known as usize] = PairHashes::of(self.pixel, self.known);
+            self.known += 1;
+        }
+        self.kept[j as usize]
     }
 
     /// The value of dimension `d` at the current sample, in `[0, 1)`:
     /// `sobol_burley::sample(sample, d mod 2, seed)` (module docs).
     #[inline]
-    pub fn value(&self, d: u32) -> f32 {
-        let (seed, shuffled) = self.pair(d);
-        scrambled(sobol_pair_rev(shuffled)[(d % 2) as usize], seed, d % 2)
+    pub fn value(&mut self, d: u32) -> f32 {
+        let h = self.hashes(d / 2);
+        let shuffled = parts::owen_scramble_rev(self.index_rev, h.shuffle);
+        scrambled(sobol_pair_rev(shuffled)[(d % 2) as usize], h.scramble[(d % 2) as usize])
     }
 
     /// The next dimension.
@@ -140,10 +185,10 @@ impl Sobol {
         if self.dim % 2 == 1 {
             self.dim = self.dim.wrapping_add(1);
         }
-        let (seed, shuffled) = self.pair(self.dim);
-        let [x, y] = sobol_pair_rev(shuffled);
+        let h = self.hashes(self.dim / 2);
+        let [x, y] = sobol_pair_rev(parts::owen_scramble_rev(self.index_rev, h.shuffle));
         self.dim = self.dim.wrapping_add(2);
-        Vec2::new(scrambled(x, seed, 0), scrambled(y, seed, 1))
+        Vec2::new(scrambled(x, h.scramble[0]), scrambled(y, h.scramble[1]))
     }
 }
 
@@ -191,12 +236,11 @@ fn sobol_pair_rev(index_rev: u32) -> [u32; 2] {
     [a[0] ^ b[0], a[1] ^ b[1]]
 }
 
-/// The Owen scramble of dimension `d` (0 or 1) of the pair with `seed` applied to its reversed
-/// Sobol point, as a float in `[0, 1)` (`sobol_burley::sample`'s last steps).
+/// The Owen scramble with hash `scramble` ([`PairHashes`]) applied to a reversed Sobol point,
+/// as a float in `[0, 1)` (`sobol_burley::sample`'s last steps).
 #[inline]
-fn scrambled(sobol_rev: u32, seed: u32, d: u32) -> f32 {
-    let scramble = seed.wrapping_mul(0x9c8f_2d3b) ^ if d == 0 { 0x912f_69ba } else { 0x174f_18ab };
-    parts::u32_to_f32_norm(parts::owen_scramble_rev(sobol_rev, parts::hash(scramble)).reverse_bits())
+fn scrambled(sobol_rev: u32, scramble: u32) -> f32 {
+    parts::u32_to_f32_norm(parts::owen_scramble_rev(sobol_rev, scramble).reverse_bits())
 }
 
 #[cfg(test)]
@@ -272,7 +316,7 @@ mod tests {
         assert_eq!(forward, backward);
         // Different pixels and different dimension sets are not the same sequence.
         assert_ne!(draw(0, 0), draw(1, 0));
-        let s = Sobol::new(7);
+        let mut s = Sobol::new(7);
         assert_ne!(s.value(0), s.value(2));
         assert_ne!(s.value(1000), s.value(1002));
     }
