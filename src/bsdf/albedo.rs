@@ -15,8 +15,8 @@
 //!   transmitted part is counted in energy (radiance × `(η_o/η_i)²`, see [`super::glass`]).
 //! * **Sheen** ([`super::sheen`]): the Charlie lobe's albedo over `(μ, sheen roughness)`.
 //!
-//! Each table is computed by fixed quadrature, nothing random (`quadrature::computed`): the microfacet
-//! albedos integrate `F·G₂/G₁` over the unit square warped to the visible normals
+//! Each table is computed by fixed quadrature, nothing random (`quadrature::computed`): the
+//! microfacet albedos integrate `F·G₂/G₁` over the unit square warped to the visible normals
 //! (`E = ∫ D_o(h) F G₂/G₁ dh`, smooth in the warp's variables at any roughness) with a
 //! Gauss–Legendre product rule, the sheen albedo integrates `f cos θi` over `(cos θi, φ)`.
 //! Lookups interpolate bilinearly over `(μ, roughness)`; `Ē` is the exact average of that
@@ -26,12 +26,12 @@
 //! **Shipped, not built per process.** The quadrature costs tenths of a second of CPU (release
 //! build, one thread: GGX about 0.15 s, the two glass slices of one index about as much, sheen
 //! a little less), which a render would pay at its first microfacet lobe: most of a small
-//! render's time, and again in every tile process of a farm. The tables' values are computed once and stored
-//! in `albedo_tables.bin` (the 35 tables of 32 × 32 little-endian `f32`, in the order of
-//! `quadrature::computed`, compiled for the tests; the averages are recomputed from them at
-//! load), read at first use (a `OnceLock`).
-//! The test `shipped_tables_are_the_quadrature` computes every table again and compares; after
-//! a change to a lobe or to the quadrature, write the file again with `make albedo-tables`
+//! render's time, and again in every tile process of a farm. The tables' values are computed
+//! once and stored in `albedo_tables.bin` (the 35 tables of 32 × 32 little-endian `f32`, in the
+//! order of `quadrature::computed`, compiled for the tests; the averages are recomputed from
+//! them at load), read at first use (a `OnceLock`). The test
+//! `shipped_tables_are_the_quadrature` computes every table again and compares; after a change
+//! to a lobe or to the quadrature, write the file again with `make albedo-tables`
 //! (`cargo test --release --lib -- --ignored write_albedo_tables`).
 
 use std::sync::OnceLock;
@@ -225,7 +225,6 @@ pub(crate) mod quadrature {
     }
 
     /// The direction at `cos θ = mu` in the `xz` plane.
-    #[cfg(test)]
     #[inline]
     pub(super) fn at(mu: f32) -> Vec3 {
         Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu)
@@ -307,41 +306,44 @@ pub(crate) mod quadrature {
 mod tests {
     use super::*;
 
-    /// The values of every table as `computed` gives them, in the shipped file's layout.
-    fn computed_bytes() -> Vec<u8> {
+    /// Every table as `quadrature::computed` gives it, in the shipped order.
+    fn computed_tables() -> Vec<Table> {
         use rayon::prelude::*;
-        let tables: Vec<Table> = (0..N_TABLES).into_par_iter().map(quadrature::computed).collect();
-        tables.iter().flat_map(|t| t.values.iter().flat_map(|v| v.to_le_bytes())).collect()
+        (0..N_TABLES).into_par_iter().map(quadrature::computed).collect()
     }
 
     /// Writes `albedo_tables.bin` again (module docs).
     #[test]
     #[ignore = "writes src/bsdf/albedo_tables.bin (make albedo-tables): after a change to a lobe or the quadrature"]
     fn write_albedo_tables() {
+        let bytes: Vec<u8> =
+            computed_tables().iter().flat_map(|t| t.values.iter().flat_map(|v| v.to_le_bytes())).collect();
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/bsdf/albedo_tables.bin");
-        std::fs::write(path, computed_bytes()).unwrap();
+        std::fs::write(path, bytes).unwrap();
     }
 
-    /// The shipped tables are what the quadrature gives (to the last bit on the machine that
-    /// wrote them; within 1e-6 where another libm rounds a sine differently).
+    /// The shipped tables, as `shipped` reads them, are what the quadrature gives (to the last
+    /// bit on the machine that wrote them; within 1e-6 where another libm rounds a sine
+    /// differently), values and averages.
     #[test]
     fn shipped_tables_are_the_quadrature() {
         let t = std::time::Instant::now();
-        let fresh = computed_bytes();
+        let fresh = computed_tables();
         println!("all {N_TABLES} tables by quadrature: {:?}", t.elapsed());
-        let value = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        let (mut worst, mut differ) = (0.0f32, 0);
-        for (i, (a, b)) in SHIPPED.chunks_exact(4).zip(fresh.chunks_exact(4)).enumerate() {
-            let (a, b) = (value(a), value(b));
-            assert!(a.is_finite(), "shipped value {i} is {a}");
-            differ += usize::from(a.to_bits() != b.to_bits());
-            worst = worst.max((a - b).abs());
+        let (mut worst, mut differ, mut count) = (0.0f32, 0, 0);
+        for (index, computed) in fresh.iter().enumerate() {
+            let shipped = super::shipped(index);
+            let pairs =
+                shipped.values.iter().zip(&computed.values).chain(shipped.averages.iter().zip(&computed.averages));
+            for (i, (&a, &b)) in pairs.enumerate() {
+                assert!(a.is_finite(), "shipped table {index}, value {i} is {a}");
+                differ += usize::from(a.to_bits() != b.to_bits());
+                worst = worst.max((a - b).abs());
+                count += 1;
+            }
         }
-        println!("{differ} of {} values differ in their bits, by at most {worst:e}", SHIPPED.len() / 4);
+        println!("{differ} of {count} values and averages differ in their bits, by at most {worst:e}");
         assert!(worst <= 1e-6, "albedo_tables.bin is stale (largest difference {worst:e}): see the module docs");
-        // The averages come from the values: the shipped table's are the computed table's.
-        let (shipped, computed) = (super::shipped(GGX_A), quadrature::computed(GGX_A));
-        assert!(shipped.averages.iter().zip(&computed.averages).all(|(a, b)| (a - b).abs() <= 1e-6));
     }
 
     #[test]

@@ -34,8 +34,7 @@ pub struct LectureParams {
 
 /// Adds the lecture material's lobes to `b`, an empty BSDF ([`Bsdf::new`]: its frame around the
 /// shading normal and its geometric normal facing `wo`, and whether the surface was hit from
-/// outside). The BSDF is filled in place: it is 632 bytes, and one built here would be copied
-/// into the caller's [`crate::shading::Shading`] at every path vertex.
+/// outside), filled in place ([`crate::shading::shade_at`] says why).
 pub fn lecture(b: &mut Bsdf, p: &LectureParams) {
     let front_face = b.front_face();
     if p.albedo != Vec3::ZERO {

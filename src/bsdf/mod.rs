@@ -400,9 +400,7 @@ impl Bsdf {
 
     /// Makes this BSDF [`Bsdf::new`]'s, in place.
     pub fn reset(&mut self, frame: Frame, ng: Vec3, front_face: bool) {
-        (self.frame, self.ng, self.front_face) = (frame, ng, front_face);
-        (self.sheen, self.coat, self.tilted, self.under) = (NO_LOBE, NO_LOBE, false, [0; MAX_LOBES]);
-        self.lobes.clear();
+        *self = Bsdf::new(frame, ng, front_face);
     }
 
     /// Adds a lobe (ignored past [`MAX_LOBES`]; the constructors never exceed it).
