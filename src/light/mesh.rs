@@ -30,6 +30,7 @@ use glam::DVec3;
 
 use crate::light::Incidence;
 use crate::math::{Vec2, Vec3};
+use crate::sampling::spherical_triangle::{self, SphericalTriangle};
 
 /// The emitting triangles of one mesh.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +48,9 @@ pub struct MeshEmitter {
     pub samples: u32,
     /// Per kept triangle, whether it emits from its front only; empty: none does.
     front_only: Vec<bool>,
+    /// Per kept triangle: its unit normal (by the winding) and its longest edge, squared.
+    normals: Vec<DVec3>,
+    longest_edge2: Vec<f64>,
 }
 
 impl MeshEmitter {
@@ -63,6 +67,8 @@ impl MeshEmitter {
             cdf: Vec::new(),
             samples,
             front_only: Vec::new(),
+            normals: Vec::new(),
+            longest_edge2: Vec::new(),
         };
         let mut total = 0.0;
         for (prim, (corners, l)) in triangles.into_iter().enumerate() {
@@ -74,6 +80,9 @@ impl MeshEmitter {
                 e.corners.push([a, b, c]);
                 e.radiance.push(l);
                 e.cdf.push(total);
+                e.normals.push((b - a).cross(c - a).normalize());
+                e.longest_edge2
+                    .push((b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared()));
             }
         }
         (!e.corners.is_empty()).then_some(e)
@@ -142,6 +151,20 @@ impl MeshEmitter {
     /// The corners of triangle `i`.
     pub fn triangle(&self, i: usize) -> [DVec3; 3] {
         self.corners[i]
+    }
+
+    /// The unit normal of triangle `i` (by the winding).
+    pub fn normal(&self, i: usize) -> DVec3 {
+        self.normals[i]
+    }
+
+    /// Triangle `i` as seen from `p`, when it is sampled by solid angle from there (near it,
+    /// and of a solid angle the sampling handles: [`crate::sampling::spherical_triangle`]).
+    pub fn seen_from(&self, i: usize, p: DVec3) -> Option<SphericalTriangle> {
+        let corners = &self.corners[i];
+        spherical_triangle::is_near(p, corners[0], self.normals[i], self.longest_edge2[i])
+            .then(|| SphericalTriangle::new(p, corners))
+            .flatten()
     }
 
     /// A point of triangle `i` for `u ∈ [0, 1)²`, uniform by area, and the triangle's unit

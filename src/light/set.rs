@@ -20,7 +20,9 @@
 //! quad, disk    uniform by area:          pdf_ω = d² / (|cosθ_l|·A)
 //! sphere        uniform in its cone:      pdf_ω = 1 / (2π(1 − cosθ_max)),  sin θ_max = r/|c − p|
 //!               (by area from inside a two-sided sphere, as for a quad)
-//! triangle      uniform by area:          pdf_ω = d² / (|cosθ_l|·A_triangle)
+//! triangle      near it (nearer its plane than its longest edge, Ω ∈ [3·10⁻⁴, 6.22] sr),
+//!               uniform by solid angle:   pdf_ω = 1/Ω   (Arvo; crate::sampling::spherical_triangle)
+//!               else uniform by area:     pdf_ω = d² / (|cosθ_l|·A_triangle)
 //! environment   its own importance sampling (crate::light::environment), distance ∞
 //! ```
 //!
@@ -53,6 +55,7 @@ use crate::light::tree::{LightBounds, LightExtent, LightTree};
 use crate::math::Aabb;
 use crate::math::{Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
+use crate::sampling::spherical_triangle;
 
 /// How [`LightSet::sample`] chooses a light (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -299,24 +302,37 @@ impl LightSet {
             }
             Entry::Triangle { mesh, tri } => {
                 let e = &self.meshes[mesh as usize];
-                let (y, normal) = e.sample_triangle(tri as usize, u);
-                let (bu, bv) = MeshEmitter::barycentric_of_sample(u);
-                let to = y - p.as_dvec3();
-                let d2 = to.length_squared();
-                let d = d2.sqrt();
-                let wi = to / d;
-                let cos_l = normal.dot(wi).abs();
-                if !(d2 > 0.0 && cos_l > 0.0 && e.emits_along(tri as usize, normal, wi)) {
+                let i = tri as usize;
+                let corners = e.triangle(i);
+                let normal = e.normal(i);
+                let p = p.as_dvec3();
+                let (wi, d, bu, bv, pdf) = if let Some(st) = e.seen_from(i, p) {
+                    let wi = st.sample([u.x as f64, u.y as f64])?;
+                    let (d, bu, bv) = spherical_triangle::hit_plane(p, wi, &corners)?;
+                    (wi, d, bu as f32, bv as f32, 1.0 / st.solid_angle)
+                } else {
+                    let (y, _) = e.sample_triangle(i, u);
+                    let (bu, bv) = MeshEmitter::barycentric_of_sample(u);
+                    let to = y - p;
+                    let d2 = to.length_squared();
+                    let d = d2.sqrt();
+                    let wi = to / d;
+                    let cos_l = normal.dot(wi).abs();
+                    if !(d2 > 0.0 && cos_l > 0.0) {
+                        return None;
+                    }
+                    (wi, d, bu, bv, d2 / (cos_l * e.triangle_area(i)))
+                };
+                if !(d > 0.0 && e.emits_along(i, normal, wi)) {
                     return None;
                 }
-                let pdf = (d2 / (cos_l * e.triangle_area(tri as usize))) as f32;
                 LightSample {
                     wi: wi.as_vec3(),
                     distance: d as f32,
-                    radiance: e.radiance(tri as usize),
-                    pdf,
+                    radiance: e.radiance(i),
+                    pdf: pdf as f32,
                     delta: false,
-                    on_mesh: Some(MeshPoint { mesh: e.mesh, prim: e.prim(tri as usize), u: bu, v: bv }),
+                    on_mesh: Some(MeshPoint { mesh: e.mesh, prim: e.prim(i), u: bu, v: bv }),
                 }
             }
             Entry::Environment => {
@@ -340,9 +356,13 @@ impl LightSet {
             Emitter::Triangle { mesh, prim } => {
                 let Some(e) = self.meshes.get(mesh as usize) else { return 0.0 };
                 let Some(tri) = e.triangle_of_prim(prim) else { return 0.0 };
-                let cos_l = ng.dot(wi).abs() as f64;
-                let d2 = (d as f64) * (d as f64);
-                let pdf = if cos_l > 0.0 { (d2 / (cos_l * e.triangle_area(tri))) as f32 } else { 0.0 };
+                let pdf = if let Some(st) = e.seen_from(tri, p.as_dvec3()) {
+                    (1.0 / st.solid_angle) as f32
+                } else {
+                    let cos_l = ng.dot(wi).abs() as f64;
+                    let d2 = (d as f64) * (d as f64);
+                    if cos_l > 0.0 { (d2 / (cos_l * e.triangle_area(tri))) as f32 } else { 0.0 }
+                };
                 (pdf, self.mesh_base[mesh as usize] + tri)
             }
         };
@@ -490,6 +510,45 @@ mod tests {
         assert!((inv[1] - quad).abs() < 1e-3 * quad, "{} vs {quad}", inv[1]);
     }
 
+    /// The irradiance an emissive triangle gives, estimated from its light samples, is Lambert's
+    /// closed form for a polygon, `E = L/2 · Σ γ_k n·(r_k × r_k+1)/|r_k × r_k+1|` (γ_k the angle
+    /// between the unit vectors to consecutive corners): near the triangle (sampled by solid
+    /// angle) and far from it (by area).
+    #[test]
+    fn a_triangle_light_gives_lamberts_irradiance() {
+        let tri = [Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 1.0)];
+        let e = MeshEmitter::new(0, 1, [(tri, Vec3::splat(3.0))]).unwrap();
+        let lights = LightSet::new(&[], &[], vec![e], None, 1.0, LightSampler::Power);
+        // The normal tilted a little, the triangle wholly above the horizon of both points.
+        let n = Vec3::new(0.02, 1.0, 0.01).normalize();
+        for (p, near) in [(Vec3::new(0.4, 0.95, 0.1), true), (Vec3::new(0.2, -2.0, 0.3), false)] {
+            assert_eq!(lights.meshes[0].seen_from(0, p.as_dvec3()).is_some(), near);
+            let r = tri.map(|c| (c - p).as_dvec3().normalize());
+            let closed: f64 = (0..3)
+                .map(|k| {
+                    let (a, b) = (r[k], r[(k + 1) % 3]);
+                    let g = a.cross(b);
+                    a.dot(b).clamp(-1.0, 1.0).acos() * n.as_dvec3().dot(g / g.length())
+                })
+                .sum::<f64>()
+                .abs()
+                * 3.0
+                / 2.0;
+            let m = 256;
+            let mut sum = 0.0;
+            for i in 0..m {
+                for j in 0..m {
+                    let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                    if let Some((s, choice)) = lights.sample(p, n, 0.5, u) {
+                        sum += (s.radiance.x * s.wi.dot(n).max(0.0) / (s.pdf * choice)) as f64;
+                    }
+                }
+            }
+            let est = sum / (m * m) as f64;
+            assert!((est - closed).abs() < 2e-3 * closed, "near {near}: estimate {est} vs closed form {closed}");
+        }
+    }
+
     /// One light of every kind: a point and a directional light, a quad, a disk and a sphere,
     /// an emissive mesh of three triangles (one not emitting) and an environment map.
     fn every_kind(sampler: LightSampler) -> LightSet {
@@ -535,6 +594,10 @@ mod tests {
         let lights = every_kind(sampler);
         assert_eq!(lights.len(), 2 + 3 + 2 + 1);
         let p = Vec3::new(0.1, 0.2, -0.3);
+        // From p the first emitting triangle is sampled by solid angle, the second by area:
+        // both densities are checked.
+        assert!(lights.meshes[0].seen_from(0, p.as_dvec3()).is_some());
+        assert!(lights.meshes[0].seen_from(1, p.as_dvec3()).is_none());
         let n = 64;
         let mut checked = [0usize; 8];
         for (k, entry) in lights.entries.iter().enumerate() {

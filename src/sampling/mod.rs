@@ -15,6 +15,7 @@ pub mod chi2;
 pub mod distribution;
 pub mod quadrature;
 pub mod sobol;
+pub mod spherical_triangle;
 
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 

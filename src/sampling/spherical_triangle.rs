@@ -1,0 +1,267 @@
+//! Directions towards a triangle, uniform in the solid angle it subtends (Arvo, "Stratified
+//! Sampling of Spherical Triangles", SIGGRAPH 1995), as Cycles and pbrt-v4 sample emissive
+//! triangles near a shading point.
+//!
+//! ```text
+//! Ω = 2·atan2(|a·(b × c)|, 1 + a·b + b·c + c·a)      (a, b, c: unit vectors from p to the corners;
+//!                                                     Van Oosterom and Strackee)
+//! p(ω) = 1/Ω                                         for every ω that meets the triangle
+//! ```
+//!
+//! A sample cuts the spherical triangle `abc` at the point `c'` of the arc `ac` for which the
+//! sub-triangle `abc'` has area `u₁·Ω`, then picks `ω` on the arc `bc'` so that
+//! `1 − ω·b = u₂·(1 − c'·b)`. The map is area-preserving, so strata of the unit square stay
+//! strata of the solid angle and a Sobol sequence keeps its stratification.
+//!
+//! Beside a light, a triangle sampled uniformly by area gives the estimate
+//! `L·cosθ_s·cosθ_l·A/d²`, which grows without bound as the shading point nears the light (the
+//! bright spikes on a surface beside a lamp); sampled by solid angle it is `L·cosθ_s·Ω`. Far
+//! away the two agree, and area sampling is cheaper (no trigonometry) and better conditioned.
+//! So, as Cycles does, a triangle is sampled by solid angle only where the shading point is
+//! nearer its plane than its longest edge is long ([`is_near`]: `d_plane < ℓ_max`), and then
+//! only for `Ω ∈ [3·10⁻⁴, 6.22]` sr (pbrt-v4's `MinSphericalSampleArea` and
+//! `MaxSphericalSampleArea`: below, the spherical triangle is too thin for the arithmetic;
+//! near 2π the point almost lies on the triangle). All the arithmetic is f64.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+/// Below this solid angle (sr) a triangle is sampled by area (module docs).
+pub const MIN_SOLID_ANGLE: f64 = 3e-4;
+/// Above this solid angle (sr) a triangle is sampled by area (module docs).
+pub const MAX_SOLID_ANGLE: f64 = 6.22;
+
+/// Whether `p` is near enough to the triangle of corner `a`, unit normal `n` and squared
+/// longest edge `longest_edge2` to be sampled by solid angle: nearer its plane than its
+/// longest edge is long.
+#[inline]
+pub fn is_near(p: DVec3, a: DVec3, n: DVec3, longest_edge2: f64) -> bool {
+    let d = n.dot(a - p);
+    d * d < longest_edge2
+}
+
+/// A triangle as seen from a point: the unit vectors towards its corners and the solid angle it
+/// subtends.
+#[derive(Clone, Copy, Debug)]
+pub struct SphericalTriangle {
+    corners: [DVec3; 3],
+    /// Ω, sr.
+    pub solid_angle: f64,
+}
+
+impl SphericalTriangle {
+    /// The triangle `tri` seen from `p`; `None` when its solid angle is outside
+    /// `[MIN_SOLID_ANGLE, MAX_SOLID_ANGLE]` (module docs), `p` in its plane included.
+    pub fn new(p: DVec3, tri: &[DVec3; 3]) -> Option<SphericalTriangle> {
+        let corners = tri.map(|v| (v - p).normalize_or_zero());
+        let solid_angle = solid_angle_of(&corners);
+        (MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&solid_angle).then_some(SphericalTriangle { corners, solid_angle })
+    }
+
+    /// The unit direction for `u ∈ [0, 1)²`, uniform in the solid angle; `None` when the
+    /// arithmetic degenerates.
+    pub fn sample(&self, u: [f64; 2]) -> Option<DVec3> {
+        let ([a, b, c], omega) = (self.corners, self.solid_angle);
+        let n_ab = a.cross(b).normalize_or_zero();
+        let n_ca = c.cross(a).normalize_or_zero();
+        // The spherical triangle's angle at `a`: between the great circles `ab` and `ac`.
+        let cos_alpha = (-n_ab.dot(n_ca)).clamp(-1.0, 1.0);
+        let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+        if !(sin_alpha > 0.0) {
+            return None;
+        }
+        // The sub-triangle abc' of area u₁·Ω: its angle sum is π + u₁·Ω.
+        let (sin_s, cos_s) = (PI + u[0] * omega).sin_cos();
+        let sin_phi = sin_s * cos_alpha - cos_s * sin_alpha;
+        let cos_phi = cos_s * cos_alpha + sin_s * sin_alpha;
+        let k1 = cos_phi + cos_alpha;
+        let k2 = sin_phi - sin_alpha * a.dot(b);
+        let cos_b = ((k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / ((k2 * sin_phi + k1 * cos_phi) * sin_alpha))
+            .clamp(-1.0, 1.0);
+        let sin_b = (1.0 - cos_b * cos_b).max(0.0).sqrt();
+        let c_prime = cos_b * a + sin_b * (c - c.dot(a) * a).normalize_or_zero();
+        // ω on the arc from b to c'.
+        let cos_theta = 1.0 - u[1] * (1.0 - c_prime.dot(b));
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        let w = cos_theta * b + sin_theta * (c_prime - c_prime.dot(b) * b).normalize_or_zero();
+        (w.is_finite() && w != DVec3::ZERO).then(|| w.normalize())
+    }
+}
+
+/// The solid angle (sr) the triangle `tri` subtends from `p`; 0 when `p` lies in its plane or
+/// on a corner.
+pub fn solid_angle(p: DVec3, tri: &[DVec3; 3]) -> f64 {
+    solid_angle_of(&tri.map(|v| (v - p).normalize_or_zero()))
+}
+
+/// Van Oosterom and Strackee's formula for unit vectors `a, b, c`.
+fn solid_angle_of([a, b, c]: &[DVec3; 3]) -> f64 {
+    let triple = a.dot(b.cross(*c)).abs();
+    let omega = 2.0 * triple.atan2(1.0 + a.dot(*b) + b.dot(*c) + c.dot(*a));
+    if omega.is_finite() { omega } else { 0.0 }
+}
+
+/// Where the ray `p + t·w` (`w` unit) meets the plane of `tri`: the distance `t` and the
+/// barycentric coordinates `(u, v)` of the second and third corners, clamped to the triangle
+/// (a direction [`SphericalTriangle::sample`] gives can fall outside by rounding); `None` when
+/// the ray runs parallel to the plane or away from it.
+pub fn hit_plane(p: DVec3, w: DVec3, tri: &[DVec3; 3]) -> Option<(f64, f64, f64)> {
+    // Möller and Trumbore's solution, without its inside test.
+    let [a, b, c] = *tri;
+    let (e1, e2) = (b - a, c - a);
+    let s = w.cross(e2);
+    let det = e1.dot(s);
+    let o = p - a;
+    let q = o.cross(e1);
+    let inv = 1.0 / det;
+    let (mut u, mut v, t) = ((o.dot(s) * inv).max(0.0), (w.dot(q) * inv).max(0.0), e2.dot(q) * inv);
+    if !(t > 0.0 && t.is_finite() && u.is_finite() && v.is_finite()) {
+        return None;
+    }
+    if u + v > 1.0 {
+        let sum = u + v;
+        (u, v) = (u / sum, v / sum);
+    }
+    Some((t, u, v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+    use crate::sampling::chi2::{Chi2Test, sidak};
+
+    /// Möller–Trumbore: whether the ray from `p` along `w` meets `tri`.
+    fn hits(p: DVec3, w: DVec3, tri: &[DVec3; 3]) -> bool {
+        let [a, b, c] = *tri;
+        let (e1, e2) = (b - a, c - a);
+        let s = w.cross(e2);
+        let det = e1.dot(s);
+        if det.abs() < 1e-300 {
+            return false;
+        }
+        let o = p - a;
+        let u = o.dot(s) / det;
+        let q = o.cross(e1);
+        let v = w.dot(q) / det;
+        let t = e2.dot(q) / det;
+        u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0
+    }
+
+    fn triangles() -> Vec<(DVec3, [DVec3; 3])> {
+        vec![
+            // Large and near: the Cornell room's wall point beside its ceiling light.
+            (DVec3::ZERO, [DVec3::new(-0.5, 0.2, -0.5), DVec3::new(0.5, 0.2, -0.5), DVec3::new(0.0, 0.3, 0.7)]),
+            // Seen obliquely, close to its plane.
+            (
+                DVec3::new(0.6, 0.2, 0.6),
+                [DVec3::new(0.0, 0.0, 1.0), DVec3::new(1.0, 0.5, 1.0), DVec3::new(0.2, 1.0, 1.5)],
+            ),
+            // Small and far, thin.
+            (DVec3::ZERO, [DVec3::new(-0.1, 0.0, 2.0), DVec3::new(0.1, 0.02, 2.0), DVec3::new(0.05, -0.05, 2.1)]),
+        ]
+    }
+
+    #[test]
+    fn the_solid_angle_of_an_octant_and_of_a_square_seen_from_its_axis() {
+        // The triangle of the three unit axes bounds one octant of the sphere: 4π/8.
+        let octant = solid_angle(DVec3::ZERO, &[DVec3::X, DVec3::Y, DVec3::Z]);
+        assert!((octant - PI / 2.0).abs() < 1e-14, "{octant}");
+        // A 2 × 2 square at height 2 on its axis, as two triangles: 4·asin(1/5).
+        let [p0, p1, p2, p3] = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| DVec3::new(x, y, 2.0));
+        let square = solid_angle(DVec3::ZERO, &[p0, p1, p2]) + solid_angle(DVec3::ZERO, &[p0, p2, p3]);
+        assert!((square - 4.0 * (0.2f64).asin()).abs() < 1e-14, "{square}");
+        // In the plane: nothing.
+        assert_eq!(solid_angle(DVec3::new(5.0, 0.0, 2.0), &[p0, p1, p2]), 0.0);
+    }
+
+    #[test]
+    fn near_means_nearer_the_plane_than_the_longest_edge_and_a_usable_solid_angle() {
+        let tri = [DVec3::new(0.0, 0.0, 1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 2.0, 1.0)];
+        let (n, edge2) = (DVec3::Z, 5.0); // longest edge √5
+        assert!(is_near(DVec3::new(0.3, 0.3, -1.2), tri[0], n, edge2));
+        assert!(!is_near(DVec3::new(0.3, 0.3, -1.3), tri[0], n, edge2));
+        assert!(is_near(DVec3::new(9.0, 9.0, 2.0), tri[0], n, edge2), "either side, any lateral offset");
+        // Seen from its plane, or too small to sample: none.
+        assert!(SphericalTriangle::new(DVec3::new(5.0, 5.0, 1.0), &tri).is_none());
+        assert!(SphericalTriangle::new(DVec3::new(0.3, 0.3, -200.0), &tri).is_none());
+        let st = SphericalTriangle::new(DVec3::new(0.3, 0.3, 0.0), &tri).unwrap();
+        assert!((st.solid_angle - solid_angle(DVec3::new(0.3, 0.3, 0.0), &tri)).abs() == 0.0);
+    }
+
+    #[test]
+    fn samples_meet_the_triangle_and_are_uniform_in_solid_angle() {
+        // Every sample meets the triangle, and the samples' directions pass Pearson's χ²
+        // against the density 1/Ω inside the triangle's solid angle and 0 outside. (The χ²
+        // harness integrates the density per bin by adaptive Simpson quadrature, which cannot
+        // see a sliver of a small triangle in a bin: the small triangle's uniformity is checked
+        // by the Jacobian in `the_map_is_area_preserving` instead.)
+        let cases = triangles();
+        let chi2_cases = cases.iter().filter(|(p, tri)| solid_angle(*p, tri) > 0.5).count();
+        assert_eq!(chi2_cases, 2);
+        for (k, (p, tri)) in cases.iter().enumerate() {
+            let omega = solid_angle(*p, tri);
+            let st = SphericalTriangle::new(*p, tri).unwrap();
+            assert_eq!(st.solid_angle, omega);
+            let n = 64;
+            for i in 0..n {
+                for j in 0..n {
+                    let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
+                    let w = st.sample(u).unwrap();
+                    let (t, bu, bv) = hit_plane(*p, w, tri).unwrap();
+                    let y = p + t * w;
+                    let back = (1.0 - bu - bv) * tri[0] + bu * tri[1] + bv * tri[2];
+                    assert!((y - back).length() < 1e-9, "triangle {k}, u {u:?}: {y} is not on it ({back})");
+                    assert!(bu > 0.0 && bv > 0.0 && bu + bv < 1.0, "triangle {k}, u {u:?}: ({bu}, {bv})");
+                }
+            }
+            if omega <= 0.5 {
+                continue;
+            }
+            let r = Chi2Test { cos_bins: 51, phi_bins: 100, ..Default::default() }.run(
+                |_, u| st.sample([u.x as f64, u.y as f64]).map(|w| w.as_vec3()),
+                |w: Vec3| if hits(*p, w.as_dvec3(), tri) { 1.0 / omega } else { 0.0 },
+            );
+            assert!(r.passes(sidak(0.01, chi2_cases)), "triangle {k} (Ω = {omega}): {r}");
+        }
+    }
+
+    #[test]
+    fn a_wrong_density_fails_chi2() {
+        // The samples of the first triangle against the density of area sampling: rejected.
+        let (p, tri) = triangles()[0];
+        let st = SphericalTriangle::new(p, &tri).unwrap();
+        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+        let area = 0.5 * n.length();
+        let r = Chi2Test { cos_bins: 51, phi_bins: 100, ..Default::default() }.run(
+            |_, u| st.sample([u.x as f64, u.y as f64]).map(|w| w.as_vec3()),
+            |w: Vec3| {
+                let w = w.as_dvec3();
+                match (hits(p, w, &tri), hit_plane(p, w, &tri)) {
+                    (true, Some((t, _, _))) => t * t / (n.normalize().dot(w).abs() * area),
+                    _ => 0.0,
+                }
+            },
+        );
+        assert!(!r.passes(0.01), "{r}");
+    }
+
+    #[test]
+    fn the_map_is_area_preserving() {
+        // The Jacobian of u ↦ ω is Ω everywhere: a small square of side δ in u maps to a patch
+        // of solid angle Ω·δ² (its two sides' cross product), so the density is 1/Ω at every
+        // point and neighbouring strata stay neighbours.
+        let d = 1e-5;
+        for (k, (p, tri)) in triangles().iter().enumerate() {
+            let omega = solid_angle(*p, tri);
+            for u in [[0.1, 0.1], [0.5, 0.5], [0.9, 0.2], [0.3, 0.95], [0.99, 0.99]] {
+                let st = SphericalTriangle::new(*p, tri).unwrap();
+                let w = |du: f64, dv: f64| st.sample([u[0] + du, u[1] + dv]).unwrap();
+                let (w0, wu, wv) = (w(0.0, 0.0), w(d, 0.0), w(0.0, d));
+                let patch = (wu - w0).cross(wv - w0).length() / (d * d);
+                assert!((patch / omega - 1.0).abs() < 1e-3, "triangle {k}, u {u:?}: Jacobian {patch} vs Ω {omega}");
+            }
+        }
+    }
+}
