@@ -164,7 +164,7 @@ impl MeshEmitter {
         let corners = &self.corners[i];
         spherical_triangle::is_near(p, corners[0], self.normals[i], self.longest_edge2[i])
             .then(|| SphericalTriangle::new(p, corners))
-            .flatten()
+            .filter(SphericalTriangle::usable)
     }
 
     /// A point of triangle `i` for `u ∈ [0, 1)²`, uniform by area, and the triangle's unit

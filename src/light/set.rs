@@ -17,7 +17,9 @@
 //!                                             scene's bounding disc from one side)
 //! point         wi = (x − p)/|x − p|,  radiance I/d²,  pdf 1 (delta)
 //! directional   wi = −direction,       radiance E,     pdf 1 (delta)
-//! quad, disk    uniform by area:          pdf_ω = d² / (|cosθ_l|·A)
+//! quad          near it (as a triangle below), uniform by solid angle as its two triangles:
+//!                                         pdf_ω = 1/(Ω₁ + Ω₂)
+//! quad, disk    else uniform by area:     pdf_ω = d² / (|cosθ_l|·A)
 //! sphere        uniform in its cone:      pdf_ω = 1 / (2π(1 − cosθ_max)),  sin θ_max = r/|c − p|
 //!               (by area from inside a two-sided sphere, as for a quad)
 //! triangle      near it (nearer its plane than its longest edge, Ω ∈ [3·10⁻⁴, 6.22] sr),
@@ -55,7 +57,7 @@ use crate::light::tree::{LightBounds, LightExtent, LightTree};
 use crate::math::Aabb;
 use crate::math::{Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
-use crate::sampling::spherical_triangle;
+use crate::sampling::spherical_triangle::{self, SphericalQuad};
 
 /// How [`LightSet::sample`] chooses a light (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -289,6 +291,21 @@ impl LightSet {
             }
             Entry::Area(i) => {
                 let light = &self.area[i as usize];
+                if let Some((q, normal)) = quad_near(&light.shape, p) {
+                    let (wi, d) = q.sample(p.as_dvec3(), [u.x as f64, u.y as f64])?;
+                    if !(d > 0.0 && (light.two_sided || normal.dot(wi) < 0.0)) {
+                        return None;
+                    }
+                    return Some(LightSample {
+                        wi: wi.as_vec3(),
+                        distance: d as f32,
+                        radiance: light.radiance,
+                        pdf: (1.0 / q.solid_angle) as f32,
+                        delta: false,
+                        on_mesh: None,
+                    })
+                    .filter(|s| s.pdf > 0.0 && s.pdf.is_finite());
+                }
                 let inc = light.sample(p, u)?;
                 let pdf = area_light_pdf(&light.shape, p, inc.to_light, inc.distance);
                 LightSample {
@@ -426,6 +443,15 @@ fn extent(e: &Entry, phi: f32, delta: &[Light], area: &[AreaLight], meshes: &[Me
     }
 }
 
+/// A quad seen from a point `p` near it, sampled by solid angle there (module docs), and its
+/// unit normal; `None` for other shapes and from farther away.
+fn quad_near(shape: &Shape, p: Vec3) -> Option<(SphericalQuad, DVec3)> {
+    let Shape::Quad { corner, edge1, edge2 } = *shape else { return None };
+    let (e1, e2) = (edge1.as_dvec3(), edge2.as_dvec3());
+    let q = SphericalQuad::near(p.as_dvec3(), corner.as_dvec3(), e1, e2)?;
+    Some((q, e1.cross(e2).normalize()))
+}
+
 /// The solid-angle density with which an area light of `shape` is sampled from `p` in the
 /// direction `wi` (unit) that meets it at distance `d` (module docs).
 pub fn area_light_pdf(shape: &Shape, p: Vec3, wi: Vec3, d: f32) -> f32 {
@@ -434,6 +460,9 @@ pub fn area_light_pdf(shape: &Shape, p: Vec3, wi: Vec3, d: f32) -> f32 {
         let cos_l = normal.dot(w).abs();
         if cos_l > 0.0 { d * d / (cos_l * area) } else { 0.0 }
     };
+    if let Some((q, _)) = quad_near(shape, p) {
+        return (1.0 / q.solid_angle) as f32;
+    }
     let pdf = match *shape {
         Shape::Quad { edge1, edge2, .. } => {
             let cross = edge1.as_dvec3().cross(edge2.as_dvec3());
@@ -510,42 +539,66 @@ mod tests {
         assert!((inv[1] - quad).abs() < 1e-3 * quad, "{} vs {quad}", inv[1]);
     }
 
-    /// The irradiance an emissive triangle gives, estimated from its light samples, is Lambert's
-    /// closed form for a polygon, `E = L/2 · Σ γ_k n·(r_k × r_k+1)/|r_k × r_k+1|` (γ_k the angle
-    /// between the unit vectors to consecutive corners): near the triangle (sampled by solid
-    /// angle) and far from it (by area).
+    /// The irradiance an emissive triangle and a quad light give, estimated from their light
+    /// samples, is Lambert's closed form for a polygon, `E = L/2 · Σ γ_k n·(r_k × r_k+1)/|r_k ×
+    /// r_k+1|` (γ_k the angle between the unit vectors to consecutive corners): near them
+    /// (sampled by solid angle) and far from them (by area).
     #[test]
-    fn a_triangle_light_gives_lamberts_irradiance() {
+    fn triangle_and_quad_lights_give_lamberts_irradiance() {
         let tri = [Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 1.0)];
         let e = MeshEmitter::new(0, 1, [(tri, Vec3::splat(3.0))]).unwrap();
-        let lights = LightSet::new(&[], &[], vec![e], None, 1.0, LightSampler::Power);
-        // The normal tilted a little, the triangle wholly above the horizon of both points.
+        let mesh = LightSet::new(&[], &[], vec![e], None, 1.0, LightSampler::Power);
+        // One-sided, emitting down (edge1 × edge2 = −y).
+        let quad = AreaLight {
+            shape: Shape::Quad { corner: Vec3::new(0.0, 1.0, 0.0), edge1: Vec3::X, edge2: Vec3::Z * 0.5 },
+            radiance: Vec3::splat(3.0),
+            two_sided: false,
+            samples: 1,
+        };
+        let quad_set = LightSet::new(&[], &[quad], Vec::new(), None, 1.0, LightSampler::Power);
+        let square =
+            [Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.5), Vec3::new(0.0, 1.0, 0.5)];
+        // The normal tilted a little, the lights wholly above the horizon of every point.
         let n = Vec3::new(0.02, 1.0, 0.01).normalize();
-        for (p, near) in [(Vec3::new(0.4, 0.95, 0.1), true), (Vec3::new(0.2, -2.0, 0.3), false)] {
-            assert_eq!(lights.meshes[0].seen_from(0, p.as_dvec3()).is_some(), near);
-            let r = tri.map(|c| (c - p).as_dvec3().normalize());
-            let closed: f64 = (0..3)
-                .map(|k| {
-                    let (a, b) = (r[k], r[(k + 1) % 3]);
-                    let g = a.cross(b);
-                    a.dot(b).clamp(-1.0, 1.0).acos() * n.as_dvec3().dot(g / g.length())
-                })
-                .sum::<f64>()
-                .abs()
-                * 3.0
-                / 2.0;
-            let m = 256;
-            let mut sum = 0.0;
-            for i in 0..m {
-                for j in 0..m {
-                    let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
-                    if let Some((s, choice)) = lights.sample(p, n, 0.5, u) {
-                        sum += (s.radiance.x * s.wi.dot(n).max(0.0) / (s.pdf * choice)) as f64;
+        let points = [(Vec3::new(0.4, 0.95, 0.1), true), (Vec3::new(0.2, -2.0, 0.3), false)];
+        for (name, lights, corners) in [("triangle", &mesh, &tri[..]), ("quad", &quad_set, &square[..])] {
+            for (p, near) in points {
+                let by_solid_angle = match name {
+                    "triangle" => lights.meshes[0].seen_from(0, p.as_dvec3()).is_some(),
+                    _ => quad_near(&quad.shape, p).is_some(),
+                };
+                assert_eq!(by_solid_angle, near, "{name}");
+                let r: Vec<_> = corners.iter().map(|c| (*c - p).as_dvec3().normalize()).collect();
+                let closed = (0..r.len())
+                    .map(|k| {
+                        let (a, b) = (r[k], r[(k + 1) % r.len()]);
+                        let g = a.cross(b);
+                        a.dot(b).clamp(-1.0, 1.0).acos() * n.as_dvec3().dot(g / g.length())
+                    })
+                    .sum::<f64>()
+                    .abs()
+                    * 3.0
+                    / 2.0;
+                let m = 256;
+                let mut sum = 0.0;
+                for i in 0..m {
+                    for j in 0..m {
+                        let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                        if let Some((s, choice)) = lights.sample(p, n, 0.5, u) {
+                            sum += (s.radiance.x * s.wi.dot(n).max(0.0) / (s.pdf * choice)) as f64;
+                        }
                     }
                 }
+                let est = sum / (m * m) as f64;
+                assert!(
+                    (est - closed).abs() < 2e-3 * closed,
+                    "{name}, near {near}: estimate {est} vs closed form {closed}"
+                );
             }
-            let est = sum / (m * m) as f64;
-            assert!((est - closed).abs() < 2e-3 * closed, "near {near}: estimate {est} vs closed form {closed}");
+        }
+        // From above, the one-sided quad lights nothing, near or far.
+        for p in [Vec3::new(0.4, 1.05, 0.1), Vec3::new(0.2, 4.0, 0.3)] {
+            assert!(quad_set.sample(p, -Vec3::Y, 0.5, Vec2::splat(0.3)).is_none());
         }
     }
 
@@ -598,6 +651,8 @@ mod tests {
         // both densities are checked.
         assert!(lights.meshes[0].seen_from(0, p.as_dvec3()).is_some());
         assert!(lights.meshes[0].seen_from(1, p.as_dvec3()).is_none());
+        // The quad light too, by solid angle (1.8 m under it, its diagonal 1.80277 m long).
+        assert!(quad_near(&lights.area[0].shape, p).is_some());
         let n = 64;
         let mut checked = [0usize; 8];
         for (k, entry) in lights.entries.iter().enumerate() {

@@ -22,6 +22,10 @@
 //! only for `Ω ∈ [3·10⁻⁴, 6.22]` sr (pbrt-v4's `MinSphericalSampleArea` and
 //! `MaxSphericalSampleArea`: below, the spherical triangle is too thin for the arithmetic;
 //! near 2π the point almost lies on the triangle). All the arithmetic is f64.
+//!
+//! A parallelogram (a quad light) is its two triangles ([`SphericalQuad`]): `u₁·Ω` picks the
+//! triangle whose share of `Ω = Ω₁ + Ω₂` it falls in and is rescaled within it (strata stay
+//! strata), and the density is `1/Ω` over the whole quad.
 
 use std::f64::consts::PI;
 
@@ -51,12 +55,16 @@ pub struct SphericalTriangle {
 }
 
 impl SphericalTriangle {
-    /// The triangle `tri` seen from `p`; `None` when its solid angle is outside
-    /// `[MIN_SOLID_ANGLE, MAX_SOLID_ANGLE]` (module docs), `p` in its plane included.
-    pub fn new(p: DVec3, tri: &[DVec3; 3]) -> Option<SphericalTriangle> {
+    /// The triangle `tri` seen from `p`.
+    pub fn new(p: DVec3, tri: &[DVec3; 3]) -> SphericalTriangle {
         let corners = tri.map(|v| (v - p).normalize_or_zero());
-        let solid_angle = solid_angle_of(&corners);
-        (MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&solid_angle).then_some(SphericalTriangle { corners, solid_angle })
+        SphericalTriangle { corners, solid_angle: solid_angle_of(&corners) }
+    }
+
+    /// Whether its solid angle is one the sampling handles (module docs).
+    #[inline]
+    pub fn usable(&self) -> bool {
+        usable(self.solid_angle)
     }
 
     /// The unit direction for `u ∈ [0, 1)²`, uniform in the solid angle; `None` when the
@@ -87,6 +95,51 @@ impl SphericalTriangle {
         let w = cos_theta * b + sin_theta * (c_prime - c_prime.dot(b) * b).normalize_or_zero();
         (w.is_finite() && w != DVec3::ZERO).then(|| w.normalize())
     }
+}
+
+/// A parallelogram `corner + a·e1 + b·e2` (`a, b ∈ [0, 1]`) seen from a point, as its two
+/// triangles `(c, c + e1, c + e1 + e2)` and `(c, c + e1 + e2, c + e2)`.
+#[derive(Clone, Copy, Debug)]
+pub struct SphericalQuad {
+    halves: [SphericalTriangle; 2],
+    triangles: [[DVec3; 3]; 2],
+    /// Ω = Ω₁ + Ω₂, sr.
+    pub solid_angle: f64,
+}
+
+impl SphericalQuad {
+    /// The parallelogram seen from `p`, when `p` is near it (nearer its plane than its
+    /// triangles' longest edge is long) and its solid angle is [`usable`]; else `None`.
+    pub fn near(p: DVec3, corner: DVec3, e1: DVec3, e2: DVec3) -> Option<SphericalQuad> {
+        let n = e1.cross(e2).normalize_or_zero();
+        let longest2 = e1.length_squared().max(e2.length_squared()).max((e1 + e2).length_squared());
+        if !is_near(p, corner, n, longest2) {
+            return None;
+        }
+        let far = corner + e1 + e2;
+        let triangles = [[corner, corner + e1, far], [corner, far, corner + e2]];
+        let halves = triangles.map(|t| SphericalTriangle::new(p, &t));
+        let solid_angle = halves[0].solid_angle + halves[1].solid_angle;
+        usable(solid_angle).then_some(SphericalQuad { halves, triangles, solid_angle })
+    }
+
+    /// The unit direction from `p` (the point it was seen from) for `u ∈ [0, 1)²`, uniform in
+    /// the solid angle, and the distance along it to the parallelogram.
+    pub fn sample(&self, p: DVec3, u: [f64; 2]) -> Option<(DVec3, f64)> {
+        let t = u[0] * self.solid_angle;
+        let first = self.halves[0].solid_angle;
+        let (k, u1) = if t < first { (0, t / first) } else { (1, (t - first) / self.halves[1].solid_angle) };
+        let w = self.halves[k].sample([u1.clamp(0.0, 1.0), u[1]])?;
+        let (d, _, _) = hit_plane(p, w, &self.triangles[k])?;
+        Some((w, d))
+    }
+}
+
+/// Whether a solid angle `omega` (sr) of a triangle, or of a quad's two, is one the sampling
+/// handles: in `[MIN_SOLID_ANGLE, MAX_SOLID_ANGLE]`.
+#[inline]
+pub fn usable(omega: f64) -> bool {
+    (MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega)
 }
 
 /// The solid angle (sr) the triangle `tri` subtends from `p`; 0 when `p` lies in its plane or
@@ -184,9 +237,10 @@ mod tests {
         assert!(!is_near(DVec3::new(0.3, 0.3, -1.3), tri[0], n, edge2));
         assert!(is_near(DVec3::new(9.0, 9.0, 2.0), tri[0], n, edge2), "either side, any lateral offset");
         // Seen from its plane, or too small to sample: none.
-        assert!(SphericalTriangle::new(DVec3::new(5.0, 5.0, 1.0), &tri).is_none());
-        assert!(SphericalTriangle::new(DVec3::new(0.3, 0.3, -200.0), &tri).is_none());
-        let st = SphericalTriangle::new(DVec3::new(0.3, 0.3, 0.0), &tri).unwrap();
+        assert!(!SphericalTriangle::new(DVec3::new(5.0, 5.0, 1.0), &tri).usable());
+        assert!(!SphericalTriangle::new(DVec3::new(0.3, 0.3, -200.0), &tri).usable());
+        let st = SphericalTriangle::new(DVec3::new(0.3, 0.3, 0.0), &tri);
+        assert!(st.usable());
         assert!((st.solid_angle - solid_angle(DVec3::new(0.3, 0.3, 0.0), &tri)).abs() == 0.0);
     }
 
@@ -202,7 +256,7 @@ mod tests {
         assert_eq!(chi2_cases, 2);
         for (k, (p, tri)) in cases.iter().enumerate() {
             let omega = solid_angle(*p, tri);
-            let st = SphericalTriangle::new(*p, tri).unwrap();
+            let st = SphericalTriangle::new(*p, tri);
             assert_eq!(st.solid_angle, omega);
             let n = 64;
             for i in 0..n {
@@ -228,10 +282,39 @@ mod tests {
     }
 
     #[test]
+    fn a_quad_is_sampled_uniformly_in_its_solid_angle() {
+        // A parallelogram seen from nearby: every sample meets it, and the directions pass χ²
+        // against 1/(Ω₁ + Ω₂) over either triangle.
+        let (p, corner, e1, e2) = (
+            DVec3::new(0.2, 0.1, 0.0),
+            DVec3::new(-0.5, -0.3, 0.4),
+            DVec3::new(1.2, 0.1, 0.0),
+            DVec3::new(0.3, 0.9, 0.2),
+        );
+        let q = SphericalQuad::near(p, corner, e1, e2).unwrap();
+        let tris = [[corner, corner + e1, corner + e1 + e2], [corner, corner + e1 + e2, corner + e2]];
+        assert!((q.solid_angle - solid_angle(p, &tris[0]) - solid_angle(p, &tris[1])).abs() < 1e-12);
+        for i in 0..64 {
+            for j in 0..64 {
+                let (w, d) = q.sample(p, [(i as f64 + 0.5) / 64.0, (j as f64 + 0.5) / 64.0]).unwrap();
+                assert!(tris.iter().any(|t| hits(p, w, t)), "{w} misses the quad");
+                assert!((e1.cross(e2).normalize().dot(p + d * w - corner)).abs() < 1e-12, "not on its plane");
+            }
+        }
+        let r = Chi2Test { cos_bins: 51, phi_bins: 100, ..Default::default() }.run(
+            |_, u| q.sample(p, [u.x as f64, u.y as f64]).map(|(w, _)| w.as_vec3()),
+            |w: Vec3| if tris.iter().any(|t| hits(p, w.as_dvec3(), t)) { 1.0 / q.solid_angle } else { 0.0 },
+        );
+        assert!(r.passes(0.01), "Ω = {}: {r}", q.solid_angle);
+        // Far from it: area sampling.
+        assert!(SphericalQuad::near(p + DVec3::Z * 5.0, corner, e1, e2).is_none());
+    }
+
+    #[test]
     fn a_wrong_density_fails_chi2() {
         // The samples of the first triangle against the density of area sampling: rejected.
         let (p, tri) = triangles()[0];
-        let st = SphericalTriangle::new(p, &tri).unwrap();
+        let st = SphericalTriangle::new(p, &tri);
         let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
         let area = 0.5 * n.length();
         let r = Chi2Test { cos_bins: 51, phi_bins: 100, ..Default::default() }.run(
@@ -256,7 +339,7 @@ mod tests {
         for (k, (p, tri)) in triangles().iter().enumerate() {
             let omega = solid_angle(*p, tri);
             for u in [[0.1, 0.1], [0.5, 0.5], [0.9, 0.2], [0.3, 0.95], [0.99, 0.99]] {
-                let st = SphericalTriangle::new(*p, tri).unwrap();
+                let st = SphericalTriangle::new(*p, tri);
                 let w = |du: f64, dv: f64| st.sample([u[0] + du, u[1] + dv]).unwrap();
                 let (w0, wu, wv) = (w(0.0, 0.0), w(d, 0.0), w(0.0, d));
                 let patch = (wu - w0).cross(wv - w0).length() / (d * d);
