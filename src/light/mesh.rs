@@ -48,8 +48,10 @@ pub struct MeshEmitter {
     pub samples: u32,
     /// Per kept triangle, whether it emits from its front only; empty: none does.
     front_only: Vec<bool>,
-    /// Per kept triangle: its unit normal (by the winding) and its longest edge, squared.
+    /// Per kept triangle: its unit normal (by the winding), its centroid and its longest edge,
+    /// squared.
     normals: Vec<DVec3>,
+    centroids: Vec<DVec3>,
     longest_edge2: Vec<f64>,
 }
 
@@ -68,6 +70,7 @@ impl MeshEmitter {
             samples,
             front_only: Vec::new(),
             normals: Vec::new(),
+            centroids: Vec::new(),
             longest_edge2: Vec::new(),
         };
         let mut total = 0.0;
@@ -81,6 +84,7 @@ impl MeshEmitter {
                 e.radiance.push(l);
                 e.cdf.push(total);
                 e.normals.push((b - a).cross(c - a).normalize());
+                e.centroids.push((a + b + c) / 3.0);
                 e.longest_edge2
                     .push((b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared()));
             }
@@ -161,9 +165,8 @@ impl MeshEmitter {
     /// Triangle `i` as seen from `p`, when it is sampled by solid angle from there (near it,
     /// and of a solid angle the sampling handles: [`crate::sampling::spherical_triangle`]).
     pub fn seen_from(&self, i: usize, p: DVec3) -> Option<SphericalTriangle> {
-        let corners = &self.corners[i];
-        spherical_triangle::is_near(p, corners[0], self.normals[i], self.longest_edge2[i])
-            .then(|| SphericalTriangle::new(p, corners))
+        spherical_triangle::is_near(p, self.centroids[i], self.longest_edge2[i])
+            .then(|| SphericalTriangle::new(p, &self.corners[i]))
             .filter(SphericalTriangle::usable)
     }
 

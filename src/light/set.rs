@@ -22,14 +22,16 @@
 //! quad, disk    else uniform by area:     pdf_ω = d² / (|cosθ_l|·A)
 //! sphere        uniform in its cone:      pdf_ω = 1 / (2π(1 − cosθ_max)),  sin θ_max = r/|c − p|
 //!               (by area from inside a two-sided sphere, as for a quad)
-//! triangle      near it (nearer its plane than its longest edge, Ω ∈ [3·10⁻⁴, 6.22] sr),
+//! triangle      near it (nearer its centroid than its longest edge, Ω ∈ [3·10⁻⁴, 6.22] sr),
 //!               uniform by solid angle:   pdf_ω = 1/Ω   (Arvo; crate::sampling::spherical_triangle)
 //!               else uniform by area:     pdf_ω = d² / (|cosθ_l|·A_triangle)
 //! environment   its own importance sampling (crate::light::environment), distance ∞
 //! ```
 //!
 //! The points are drawn by the lights themselves ([`crate::light::area`],
-//! [`crate::light::mesh`], [`crate::light::environment`]); this file adds the densities and
+//! [`crate::light::mesh`], [`crate::light::environment`]), or by solid angle near a quad or a
+//! triangle ([`crate::sampling::spherical_triangle`]: the rule of "near" is there, and
+//! [`MeshEmitter::seen_from`] and [`Parallelogram::seen_from`] apply it); this file adds the densities and
 //! the choice ([`crate::sampling::distribution::Distribution1D`]). Each sample carries the
 //! light's radiance `L` (W/(m²·sr)) and the integrator divides by `P(light)·pdf_ω`; `pdf_hit`
 //! and `pdf_environment` return the same product for a direction a BSDF sample found, from the
@@ -57,7 +59,7 @@ use crate::light::tree::{LightBounds, LightExtent, LightTree};
 use crate::math::Aabb;
 use crate::math::{Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
-use crate::sampling::spherical_triangle::{self, SphericalQuad};
+use crate::sampling::spherical_triangle::{self, Parallelogram};
 
 /// How [`LightSet::sample`] chooses a light (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -154,6 +156,9 @@ enum Entry {
 pub struct LightSet {
     delta: Vec<Light>,
     area: Vec<AreaLight>,
+    /// Per area light: for a quad, its parallelogram (to sample it by solid angle near it) and
+    /// its unit normal, in f64.
+    quads: Vec<Option<(Parallelogram, DVec3)>>,
     meshes: Vec<MeshEmitter>,
     environment: Option<Environment>,
     entries: Vec<Entry>,
@@ -217,9 +222,20 @@ impl LightSet {
                 Selection::Tree(LightTree::new(&extents))
             }
         };
+        let quads = area
+            .iter()
+            .map(|l| match l.shape {
+                Shape::Quad { corner, edge1, edge2 } => {
+                    let (e1, e2) = (edge1.as_dvec3(), edge2.as_dvec3());
+                    Some((Parallelogram::new(corner.as_dvec3(), e1, e2), e1.cross(e2).normalize()))
+                }
+                _ => None,
+            })
+            .collect();
         LightSet {
             delta: delta.to_vec(),
             area: area.to_vec(),
+            quads,
             meshes,
             environment,
             entries,
@@ -291,23 +307,30 @@ impl LightSet {
             }
             Entry::Area(i) => {
                 let light = &self.area[i as usize];
-                if let Some((q, normal)) = quad_near(&light.shape, p) {
-                    let (wi, d) = q.sample(p.as_dvec3(), [u.x as f64, u.y as f64])?;
-                    if !(d > 0.0 && (light.two_sided || normal.dot(wi) < 0.0)) {
+                if let Some((quad, normal)) = &self.quads[i as usize] {
+                    // Behind a one-sided quad, or in its plane: no light, however it is sampled.
+                    let pd = p.as_dvec3();
+                    if !light.two_sided && normal.dot(pd - quad.corner()) <= 0.0 {
                         return None;
                     }
-                    return Some(LightSample {
-                        wi: wi.as_vec3(),
-                        distance: d as f32,
-                        radiance: light.radiance,
-                        pdf: (1.0 / q.solid_angle) as f32,
-                        delta: false,
-                        on_mesh: None,
-                    })
-                    .filter(|s| s.pdf > 0.0 && s.pdf.is_finite());
+                    if let Some(q) = quad.seen_from(pd) {
+                        let (wi, d) = q.sample(pd, [u.x as f64, u.y as f64])?;
+                        if !(d > 0.0 && (light.two_sided || normal.dot(wi) < 0.0)) {
+                            return None;
+                        }
+                        return Some(LightSample {
+                            wi: wi.as_vec3(),
+                            distance: d as f32,
+                            radiance: light.radiance,
+                            pdf: (1.0 / q.solid_angle) as f32,
+                            delta: false,
+                            on_mesh: None,
+                        })
+                        .filter(|s| s.pdf > 0.0 && s.pdf.is_finite());
+                    }
                 }
                 let inc = light.sample(p, u)?;
-                let pdf = area_light_pdf(&light.shape, p, inc.to_light, inc.distance);
+                let pdf = pdf_by_area(&light.shape, p, inc.to_light, inc.distance);
                 LightSample {
                     wi: inc.to_light,
                     distance: inc.distance,
@@ -368,7 +391,12 @@ impl LightSet {
         let (pdf, entry) = match emitter {
             Emitter::Area(k) => {
                 let Some(light) = self.area.get(k as usize) else { return 0.0 };
-                (area_light_pdf(&light.shape, p, wi, d), self.area_base + k as usize)
+                let near = self.quads[k as usize].as_ref().and_then(|(quad, _)| quad.seen_from(p.as_dvec3()));
+                let pdf = match near {
+                    Some(q) => (1.0 / q.solid_angle) as f32,
+                    None => pdf_by_area(&light.shape, p, wi, d),
+                };
+                (pdf, self.area_base + k as usize)
             }
             Emitter::Triangle { mesh, prim } => {
                 let Some(e) = self.meshes.get(mesh as usize) else { return 0.0 };
@@ -443,26 +471,15 @@ fn extent(e: &Entry, phi: f32, delta: &[Light], area: &[AreaLight], meshes: &[Me
     }
 }
 
-/// A quad seen from a point `p` near it, sampled by solid angle there (module docs), and its
-/// unit normal; `None` for other shapes and from farther away.
-fn quad_near(shape: &Shape, p: Vec3) -> Option<(SphericalQuad, DVec3)> {
-    let Shape::Quad { corner, edge1, edge2 } = *shape else { return None };
-    let (e1, e2) = (edge1.as_dvec3(), edge2.as_dvec3());
-    let q = SphericalQuad::near(p.as_dvec3(), corner.as_dvec3(), e1, e2)?;
-    Some((q, e1.cross(e2).normalize()))
-}
-
-/// The solid-angle density with which an area light of `shape` is sampled from `p` in the
-/// direction `wi` (unit) that meets it at distance `d` (module docs).
-pub fn area_light_pdf(shape: &Shape, p: Vec3, wi: Vec3, d: f32) -> f32 {
+/// The solid-angle density of the sampling [`AreaLight::sample`] does (by area, or in a
+/// sphere's cone; module docs) from `p`, for the direction `wi` (unit) that meets the light at
+/// distance `d`.
+pub fn pdf_by_area(shape: &Shape, p: Vec3, wi: Vec3, d: f32) -> f32 {
     let (w, d) = (wi.as_dvec3(), d as f64);
     let by_area = |normal: DVec3, area: f64| {
         let cos_l = normal.dot(w).abs();
         if cos_l > 0.0 { d * d / (cos_l * area) } else { 0.0 }
     };
-    if let Some((q, _)) = quad_near(shape, p) {
-        return (1.0 / q.solid_angle) as f32;
-    }
     let pdf = match *shape {
         Shape::Quad { edge1, edge2, .. } => {
             let cross = edge1.as_dvec3().cross(edge2.as_dvec3());
@@ -565,7 +582,7 @@ mod tests {
             for (p, near) in points {
                 let by_solid_angle = match name {
                     "triangle" => lights.meshes[0].seen_from(0, p.as_dvec3()).is_some(),
-                    _ => quad_near(&quad.shape, p).is_some(),
+                    _ => lights.quads[0].as_ref().unwrap().0.seen_from(p.as_dvec3()).is_some(),
                 };
                 assert_eq!(by_solid_angle, near, "{name}");
                 let r: Vec<_> = corners.iter().map(|c| (*c - p).as_dvec3().normalize()).collect();
@@ -646,13 +663,14 @@ mod tests {
     fn pdf_hit_matches(sampler: LightSampler) {
         let lights = every_kind(sampler);
         assert_eq!(lights.len(), 2 + 3 + 2 + 1);
-        let p = Vec3::new(0.1, 0.2, -0.3);
-        // From p the first emitting triangle is sampled by solid angle, the second by area:
-        // both densities are checked.
+        let p = Vec3::new(-0.9, 1.4, -1.3);
+        // From p the first emitting triangle is sampled by solid angle (1.29 m from its centroid,
+        // its longest edge 1.5 m), the second by area (2.51 m; 1.5 m): both densities are
+        // checked. The quad light too is sampled by solid angle (1.19 m from its centre, its
+        // diagonal 1.80 m).
         assert!(lights.meshes[0].seen_from(0, p.as_dvec3()).is_some());
         assert!(lights.meshes[0].seen_from(1, p.as_dvec3()).is_none());
-        // The quad light too, by solid angle (1.8 m under it, its diagonal 1.80277 m long).
-        assert!(quad_near(&lights.area[0].shape, p).is_some());
+        assert!(lights.quads[0].as_ref().unwrap().0.seen_from(p.as_dvec3()).is_some());
         let n = 64;
         let mut checked = [0usize; 8];
         for (k, entry) in lights.entries.iter().enumerate() {
