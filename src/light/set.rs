@@ -30,9 +30,9 @@
 //!
 //! The points are drawn by the lights themselves ([`crate::light::area`],
 //! [`crate::light::mesh`], [`crate::light::environment`]), or by solid angle near a quad or a
-//! triangle ([`crate::sampling::spherical_triangle`]: the rule of "near" is there, and
-//! [`MeshEmitter::seen_from`] and [`Parallelogram::seen_from`] apply it); this file adds the densities and
-//! the choice ([`crate::sampling::distribution::Distribution1D`]). Each sample carries the
+//! triangle ([`crate::sampling::spherical_triangle`], which has the rule of "near";
+//! [`MeshEmitter::seen_from`] and [`Parallelogram::seen_from`] apply it); this file adds the
+//! densities and the choice ([`crate::sampling::distribution::Distribution1D`]). Each sample carries the
 //! light's radiance `L` (W/(m²·sr)) and the integrator divides by `P(light)·pdf_ω`; `pdf_hit`
 //! and `pdf_environment` return the same product for a direction a BSDF sample found, from the
 //! same numbers. A light of power 0 is never chosen (and its density is 0). Point and

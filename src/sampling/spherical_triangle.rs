@@ -19,15 +19,15 @@
 //! away the two agree, and area sampling is cheaper (no trigonometry) and better conditioned.
 //! So a triangle is sampled by solid angle only where the shading point is nearer its centroid
 //! than its longest edge is long ([`is_near`]: `|p − c| < ℓ_max`; Cycles' rule, nearer the
-//! triangle's plane than that, also takes points far off to the side, and cost 4–7 % more
-//! instructions on the Cornell rooms for no less noise), and then only for
+//! triangle's plane than that, also takes points far off to the side, and cost 4–6 % more
+//! instructions on the scenes of docs/performance.md for no less noise), and then only for
 //! `Ω ∈ [3·10⁻⁴, 6.22]` sr (pbrt-v4's `MinSphericalSampleArea` and `MaxSphericalSampleArea`:
 //! below, the spherical triangle is too thin for the arithmetic; near 2π the point almost lies
 //! on the triangle). All the arithmetic is f64.
 //!
-//! A parallelogram (a quad light) is its two triangles ([`Parallelogram`], [`SphericalQuad`]): `u₁·Ω` picks the
-//! triangle whose share of `Ω = Ω₁ + Ω₂` it falls in and is rescaled within it (strata stay
-//! strata), and the density is `1/Ω` over the whole quad.
+//! A parallelogram (a quad light) is its two triangles ([`Parallelogram`], [`SphericalQuad`]):
+//! `u₁·Ω` picks the triangle whose share of `Ω = Ω₁ + Ω₂` it falls in and is rescaled within it
+//! (strata stay strata), and the density is `1/Ω` over the whole quad.
 
 use std::f64::consts::PI;
 
