@@ -121,10 +121,16 @@ impl MeshEmitter {
         let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
         let start = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         let u1 = ((target - start) / (self.cdf[i] - start)).clamp(0.0, 1.0);
+        (self.point_on(i, u1, u.y as f64), self.normals[i], i)
+    }
+
+    /// The point `(1 − √u₁)·a + √u₁(1 − u₂)·b + √u₁·u₂·c` of triangle `i` (uniform by area for
+    /// uniform `u₁, u₂`).
+    #[inline]
+    fn point_on(&self, i: usize, u1: f64, u2: f64) -> DVec3 {
         let [a, b, c] = self.corners[i];
         let s = u1.sqrt();
-        let y = (1.0 - s) * a + s * (1.0 - u.y as f64) * b + s * u.y as f64 * c;
-        (y, (b - a).cross(c - a).normalize(), i)
+        (1.0 - s) * a + s * (1.0 - u2) * b + s * u2 * c
     }
 
     /// The radiance of triangle `i` (an index [`MeshEmitter::sample_point`] returns).
@@ -170,13 +176,9 @@ impl MeshEmitter {
             .filter(SphericalTriangle::usable)
     }
 
-    /// A point of triangle `i` for `u ∈ [0, 1)²`, uniform by area, and the triangle's unit
-    /// normal (by the winding).
-    pub fn sample_triangle(&self, i: usize, u: Vec2) -> (DVec3, DVec3) {
-        let [a, b, c] = self.corners[i];
-        let s = (u.x as f64).sqrt();
-        let y = (1.0 - s) * a + s * (1.0 - u.y as f64) * b + s * u.y as f64 * c;
-        (y, (b - a).cross(c - a).normalize())
+    /// A point of triangle `i` for `u ∈ [0, 1)²`, uniform by area.
+    pub fn sample_triangle(&self, i: usize, u: Vec2) -> DVec3 {
+        self.point_on(i, u.x as f64, u.y as f64)
     }
 
     /// The barycentric coordinates `(u, v)` (of the second and third corners) of the point

@@ -156,9 +156,9 @@ enum Entry {
 pub struct LightSet {
     delta: Vec<Light>,
     area: Vec<AreaLight>,
-    /// Per area light: for a quad, its parallelogram (to sample it by solid angle near it) and
-    /// its unit normal, in f64.
-    quads: Vec<Option<(Parallelogram, DVec3)>>,
+    /// Per area light: for a quad, its parallelogram in f64 (to sample it by solid angle near
+    /// it).
+    quads: Vec<Option<Parallelogram>>,
     meshes: Vec<MeshEmitter>,
     environment: Option<Environment>,
     entries: Vec<Entry>,
@@ -226,8 +226,7 @@ impl LightSet {
             .iter()
             .map(|l| match l.shape {
                 Shape::Quad { corner, edge1, edge2 } => {
-                    let (e1, e2) = (edge1.as_dvec3(), edge2.as_dvec3());
-                    Some((Parallelogram::new(corner.as_dvec3(), e1, e2), e1.cross(e2).normalize()))
+                    Some(Parallelogram::new(corner.as_dvec3(), edge1.as_dvec3(), edge2.as_dvec3()))
                 }
                 _ => None,
             })
@@ -307,9 +306,9 @@ impl LightSet {
             }
             Entry::Area(i) => {
                 let light = &self.area[i as usize];
-                if let Some((quad, normal)) = &self.quads[i as usize] {
+                if let Some(quad) = &self.quads[i as usize] {
                     // Behind a one-sided quad, or in its plane: no light, however it is sampled.
-                    let pd = p.as_dvec3();
+                    let (pd, normal) = (p.as_dvec3(), quad.normal());
                     if !light.two_sided && normal.dot(pd - quad.corner()) <= 0.0 {
                         return None;
                     }
@@ -351,7 +350,7 @@ impl LightSet {
                     let (d, bu, bv) = spherical_triangle::hit_plane(p, wi, &corners)?;
                     (wi, d, bu as f32, bv as f32, 1.0 / st.solid_angle)
                 } else {
-                    let (y, _) = e.sample_triangle(i, u);
+                    let y = e.sample_triangle(i, u);
                     let (bu, bv) = MeshEmitter::barycentric_of_sample(u);
                     let to = y - p;
                     let d2 = to.length_squared();
@@ -361,7 +360,7 @@ impl LightSet {
                     if !(d2 > 0.0 && cos_l > 0.0) {
                         return None;
                     }
-                    (wi, d, bu, bv, d2 / (cos_l * e.triangle_area(i)))
+                    (wi, d, bu, bv, density_by_area(d2, cos_l, e.triangle_area(i)))
                 };
                 if !(d > 0.0 && e.emits_along(i, normal, wi)) {
                     return None;
@@ -391,7 +390,7 @@ impl LightSet {
         let (pdf, entry) = match emitter {
             Emitter::Area(k) => {
                 let Some(light) = self.area.get(k as usize) else { return 0.0 };
-                let near = self.quads[k as usize].as_ref().and_then(|(quad, _)| quad.seen_from(p.as_dvec3()));
+                let near = self.quads[k as usize].as_ref().and_then(|quad| quad.seen_from(p.as_dvec3()));
                 let pdf = match near {
                     Some(q) => (1.0 / q.solid_angle) as f32,
                     None => pdf_by_area(&light.shape, p, wi, d),
@@ -404,9 +403,8 @@ impl LightSet {
                 let pdf = if let Some(st) = e.seen_from(tri, p.as_dvec3()) {
                     (1.0 / st.solid_angle) as f32
                 } else {
-                    let cos_l = ng.dot(wi).abs() as f64;
-                    let d2 = (d as f64) * (d as f64);
-                    if cos_l > 0.0 { (d2 / (cos_l * e.triangle_area(tri))) as f32 } else { 0.0 }
+                    let d = d as f64;
+                    density_by_area(d * d, ng.dot(wi).abs() as f64, e.triangle_area(tri)) as f32
                 };
                 (pdf, self.mesh_base[mesh as usize] + tri)
             }
@@ -458,17 +456,18 @@ fn extent(e: &Entry, phi: f32, delta: &[Light], area: &[AreaLight], meshes: &[Me
             LightExtent::Bounded(LightBounds::diffuse(bounds, w, phi, cos_o, l.two_sided))
         }
         Entry::Triangle { mesh, tri } => {
-            let [a, b, c] = meshes[mesh as usize].triangle(tri as usize);
-            let bounds = Aabb::from_points([a, b, c].map(|p| p.as_vec3()));
-            LightExtent::Bounded(LightBounds::diffuse(
-                bounds,
-                (b - a).cross(c - a).normalize().as_vec3(),
-                phi,
-                1.0,
-                true,
-            ))
+            let e = &meshes[mesh as usize];
+            let bounds = Aabb::from_points(e.triangle(tri as usize).map(|p| p.as_vec3()));
+            LightExtent::Bounded(LightBounds::diffuse(bounds, e.normal(tri as usize).as_vec3(), phi, 1.0, true))
         }
     }
+}
+
+/// The solid-angle density `d²/(|cosθ_l|·A)` of a point drawn uniformly on an area `A` seen at
+/// distance `d` (`d2` = d²) and angle `θ_l` to its normal; 0 edge-on.
+#[inline]
+fn density_by_area(d2: f64, cos_l: f64, area: f64) -> f64 {
+    if cos_l > 0.0 { d2 / (cos_l * area) } else { 0.0 }
 }
 
 /// The solid-angle density of the sampling [`AreaLight::sample`] does (by area, or in a
@@ -476,10 +475,7 @@ fn extent(e: &Entry, phi: f32, delta: &[Light], area: &[AreaLight], meshes: &[Me
 /// distance `d`.
 pub fn pdf_by_area(shape: &Shape, p: Vec3, wi: Vec3, d: f32) -> f32 {
     let (w, d) = (wi.as_dvec3(), d as f64);
-    let by_area = |normal: DVec3, area: f64| {
-        let cos_l = normal.dot(w).abs();
-        if cos_l > 0.0 { d * d / (cos_l * area) } else { 0.0 }
-    };
+    let by_area = |normal: DVec3, area: f64| density_by_area(d * d, normal.dot(w).abs(), area);
     let pdf = match *shape {
         Shape::Quad { edge1, edge2, .. } => {
             let cross = edge1.as_dvec3().cross(edge2.as_dvec3());
@@ -582,7 +578,7 @@ mod tests {
             for (p, near) in points {
                 let by_solid_angle = match name {
                     "triangle" => lights.meshes[0].seen_from(0, p.as_dvec3()).is_some(),
-                    _ => lights.quads[0].as_ref().unwrap().0.seen_from(p.as_dvec3()).is_some(),
+                    _ => lights.quads[0].as_ref().unwrap().seen_from(p.as_dvec3()).is_some(),
                 };
                 assert_eq!(by_solid_angle, near, "{name}");
                 let r: Vec<_> = corners.iter().map(|c| (*c - p).as_dvec3().normalize()).collect();
@@ -670,7 +666,7 @@ mod tests {
         // diagonal 1.80 m).
         assert!(lights.meshes[0].seen_from(0, p.as_dvec3()).is_some());
         assert!(lights.meshes[0].seen_from(1, p.as_dvec3()).is_none());
-        assert!(lights.quads[0].as_ref().unwrap().0.seen_from(p.as_dvec3()).is_some());
+        assert!(lights.quads[0].as_ref().unwrap().seen_from(p.as_dvec3()).is_some());
         let n = 64;
         let mut checked = [0usize; 8];
         for (k, entry) in lights.entries.iter().enumerate() {
