@@ -271,6 +271,28 @@ fn border_render_with_crop_is_the_border_only() {
     }
 }
 
+/// The panel's seed reaches strahl, with the frame number added under Animated Seed (Cycles'
+/// rule): frame 1 of seed 3 is strahl's own render of the export (of frame 1) with `--seed 4`,
+/// which differs from the render without a seed.
+#[test]
+fn the_panels_animated_seed_is_the_seed_plus_the_frame() {
+    let Some(room) = room() else { return };
+    let expr = "import bpy; s = bpy.context.scene.strahl; s.seed = 3; s.use_animated_seed = True";
+    let out = render(room, "seeded", Some(expr), &["-f", "1"]);
+    let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
+    let exr = room.dir.path("seed4.exr");
+    let gltf = room.dir.path("reference/scene.gltf");
+    let mut args = vec!["render".to_string(), gltf.display().to_string(), "-o".into(), exr.display().to_string()];
+    args.extend(room_settings(&room.camera));
+    args.extend(["--seed".to_string(), "4".to_string()]);
+    check(&strahl(&args.iter().map(String::as_str).collect::<Vec<_>>()), "seed4");
+    let (_, _, seeded) = read_exr(&exr);
+    let (_, _, unseeded) = read_exr(&room.reference);
+    let r = |c: &[(String, Vec<f32>)]| bits(channel(c, "ViewLayer.Combined.R"));
+    assert_eq!(r(&blender), r(&seeded), "frame 1 of seed 3 is strahl's render with --seed 4");
+    assert_ne!(r(&seeded), r(&unseeded), "the seed changed no pixel: the test proves nothing");
+}
+
 /// The panel's adaptive sampling reaches strahl: the frame is strahl's own render of the export
 /// with `--adaptive-threshold`, which differs from the uniform render at the same maximum.
 #[test]

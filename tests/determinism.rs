@@ -213,3 +213,60 @@ fn the_path_tracer_renders_the_same_bits_on_any_threads_and_in_any_split() {
     let mean: f32 = one.rgba.iter().map(|p| p[0]).sum::<f32>() / one.rgba.len() as f32;
     assert!(mean > 0.05, "{mean}");
 }
+
+/// `[render] seed`: seed 0 is the render without one (same bits, same fingerprint); another
+/// seed renders the same bits on any threads and in any split, and its noise is independent of
+/// seed 0's: the mean of two seeds' images has half the squared error of one (against a render
+/// of 64 times the samples), where two renders of one seed would keep all of it.
+#[test]
+fn a_seed_gives_independent_noise_and_seed_0_is_the_render_without_one() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-path.toml");
+    let mut scene = strahl::scene::load(&path).unwrap().scene;
+    assert_eq!(scene.render.seed, 0);
+    (scene.image.width, scene.image.height, scene.image.spp) = (32, 32, 16);
+    let accel = common::accel(&scene);
+    let render = |scene: &strahl::scene::Scene, threads| {
+        pool(threads).install(|| integrator::render(scene, &accel, &|_| {}).unwrap()).0
+    };
+    let seeded = |seed| {
+        let mut s = scene.clone();
+        s.render.seed = seed;
+        s
+    };
+    let unseeded = render(&scene, 2);
+    assert!(common::same_bits(&unseeded, &render(&seeded(0), 2)), "seed 0 is not the render without a seed");
+    let hash = strahl::scene::hash::scene_hash;
+    assert_eq!(hash(&seeded(0)), hash(&scene));
+    assert_ne!(hash(&seeded(1)), hash(&scene), "a seeded render's checkpoint would resume an unseeded one");
+    // Any threads, any split.
+    let (one, two) = (render(&seeded(1), 1), render(&seeded(1), 2));
+    assert!(common::same_bits(&one, &two), "seed 1: 1 and 2 threads differ");
+    use strahl::output::region::Region;
+    let band = Region { x0: 0, y0: 11, x1: 32, y1: 32 };
+    let (part, _) = pool(2).install(|| integrator::render_region(&seeded(1), &accel, band, &|_| {}).unwrap());
+    for y in band.y0..band.y1 {
+        for x in 0..32 {
+            let (a, b) = (part.rgba[part.index(x, y)], one.rgba[one.index(x, y)]);
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "seed 1, pixel {x},{y}");
+        }
+    }
+    // Independent noise.
+    let mut reference = seeded(7);
+    reference.image.spp = 1024;
+    let reference = render(&reference, 2);
+    let luminance =
+        |f: &strahl::output::film::Film| f.rgba.iter().map(|p| (p[0] + p[1] + p[2]) as f64).collect::<Vec<_>>();
+    let r = luminance(&reference);
+    let mse = |img: &[f64]| img.iter().zip(&r).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / r.len() as f64;
+    let mean_of = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect::<Vec<_>>();
+    let (a, b, c) = (luminance(&unseeded), luminance(&one), luminance(&render(&seeded(2), 2)));
+    let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    assert!(differ > a.len() * 9 / 10, "seed 1 changed only {differ} of {} pixels", a.len());
+    for (x, y) in [(&a, &b), (&b, &c), (&a, &c)] {
+        // Independent: 1/2 (and the reference's own noise, 1/64 of a render's); one seed twice: 1.
+        let ratio = mse(&mean_of(x, y)) / (0.5 * (mse(x) + mse(y)));
+        eprintln!("squared error of the mean of two seeds over one seed's: {ratio:.3}");
+        assert!((0.38..0.64).contains(&ratio), "{ratio}: the seeds' noise is not independent");
+    }
+    assert!((mse(&mean_of(&a, &a)) / mse(&a) - 1.0).abs() < 1e-12);
+}

@@ -28,6 +28,12 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     assert!(e.contains("cornell.toml") && e.contains("spp 65537 is more than the 65536"), "{e}");
     let e = run_fails(&["--clamp", "-1"]);
     assert!(e.contains("clamp -1 must be finite and > 0"), "{e}");
+    for seed in ["-1", "2147483648", "1e3", "0x10", "7; rm -rf /"] {
+        let e = strahl(&with(&["--seed", seed]).iter().map(String::as_str).collect::<Vec<_>>());
+        let stderr = text(&e.stderr);
+        assert_eq!((e.status.code(), stderr.lines().count()), (Some(2), 1), "{seed}: {stderr}");
+        assert!(stderr.contains("--seed"), "{stderr}");
+    }
     // A usage error, as clap reports them (status 2).
     let e = strahl(&["render", &scene, "-o", o, "--integrator", "bidirectional"]);
     let stderr = text(&e.stderr);
@@ -41,6 +47,12 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     let e = fails(&dir, &["render", bad.to_str().unwrap(), "-o", o]);
     assert!(e.contains("bad.toml:") && e.contains("render: integrator \"photons\""), "{e}");
     std::fs::remove_file(&bad).unwrap();
+    for (seed, problem) in [("-3", "expected u32"), ("2147483648", "render: seed 2147483648 is more than 2147483647")] {
+        let bad = dir.write("seed.toml", lecture.replace("integrator = \"whitted\"", &format!("seed = {seed}")));
+        let e = fails(&dir, &["render", bad.to_str().unwrap(), "-o", o]);
+        assert!(e.contains("seed.toml:") && e.contains(problem), "{e}");
+        std::fs::remove_file(&bad).unwrap();
+    }
     // And it renders: 8 × 8 at 4 spp, the header naming the integrator.
     let ok = strahl(&with(&["--spp", "4"]).iter().map(String::as_str).collect::<Vec<_>>());
     assert!(ok.status.success(), "{}", text(&ok.stderr));
@@ -51,8 +63,20 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     assert_eq!(attributes.get(&Text::from("strahl/lightSampler")), Some(&AttributeValue::Text(Text::from("tree"))));
     assert_eq!(attributes.get(&Text::from("strahl/clamp")), None);
     assert_eq!(attributes.get(&Text::from("strahl/adaptiveThreshold")), None);
+    assert_eq!(attributes.get(&Text::from("strahl/seed")), None);
     // The settings that change the estimator are recorded with the values given.
-    let args = with(&["--spp", "4", "--light-sampler", "power", "--clamp", "7.5", "--adaptive-threshold", "0.02"]);
+    let args = with(&[
+        "--spp",
+        "4",
+        "--light-sampler",
+        "power",
+        "--clamp",
+        "7.5",
+        "--adaptive-threshold",
+        "0.02",
+        "--seed",
+        "2147483647",
+    ]);
     let ok = strahl(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(ok.status.success(), "{}", text(&ok.stderr));
     let image = common::read_exr_image(&out);
@@ -60,6 +84,7 @@ fn the_path_tracer_refuses_what_it_cannot_render_in_one_line() {
     assert_eq!(attributes.get(&Text::from("strahl/lightSampler")), Some(&AttributeValue::Text(Text::from("power"))));
     assert_eq!(attributes.get(&Text::from("strahl/clamp")), Some(&AttributeValue::F32(7.5)));
     assert_eq!(attributes.get(&Text::from("strahl/adaptiveThreshold")), Some(&AttributeValue::F32(0.02)));
+    assert_eq!(attributes.get(&Text::from("strahl/seed")), Some(&AttributeValue::I32(2147483647)));
     // The Whitted integrator has none of them.
     let ok = strahl(&["render", &scene, "-o", o, "--width", "8", "--height", "8", "--integrator", "whitted"]);
     assert!(ok.status.success(), "{}", text(&ok.stderr));

@@ -261,7 +261,9 @@ fn resume_of_a_finished_render_does_nothing() {
     assert_eq!(dir.entries(), ["o.exr", "o.png"]);
     // Other settings, another region, another output setting, a missing PNG: rendered again
     // and replaced.
-    for extra in [&["--spp", "2"][..], &["--region", "0,0,32,48"], &["--compression", "none"], &["--half"]] {
+    for extra in
+        [&["--spp", "2"][..], &["--region", "0,0,32,48"], &["--compression", "none"], &["--half"], &["--seed", "3"]]
+    {
         let r = run(&args(&out, &[&["--resume"][..], &with_png, extra].concat()));
         assert!(r.status.success(), "{}", text(&r.stderr));
         assert!(text(&r.stdout).contains("rays:"), "{extra:?}: not rendered again");

@@ -105,6 +105,13 @@ def strahl_arguments(binary, gltf, camera, exr, scene, view_layer, width, height
     return args
 
 
+def sample_seed(settings, frame):
+    """The panel's seed, plus the frame number (negative frames as 0) with Animated Seed,
+    wrapped into strahl's range of seeds, 0 to 2^31 - 1 (Blender's own seeds' range)."""
+    seed = settings.seed + (max(0, frame) if settings.use_animated_seed else 0)
+    return seed % 2**31
+
+
 def render_options(camera, scene, view_layer, width, height, extra_passes=()):
     """The `strahl render` options of the panel's and the view layer's settings that a frame
     and each of its farm tiles share (no output, threads, region or denoising)."""
@@ -117,6 +124,9 @@ def render_options(camera, scene, view_layer, width, height, extra_passes=()):
     args += ["--frame", str(max(0, scene.frame_current)), "--fps", str(fps)]
     if settings.integrator == "path" and settings.use_adaptive_sampling:
         args += ["--adaptive-threshold", repr(float(settings.adaptive_threshold))]
+    seed = sample_seed(settings, scene.frame_current)
+    if seed:
+        args += ["--seed", str(seed)]
     names = passes.requested(view_layer)
     names += [p for p in extra_passes if p not in names]
     args += ["--passes", ",".join(names), "--layer-name", view_layer.name]

@@ -52,6 +52,17 @@ class StrahlSettings(bpy.types.PropertyGroup):
         max=1.0,
         precision=4,
     )
+    seed: IntProperty(
+        name="Seed",
+        description="Seed of the sample sequences: renders with different seeds have independent noise",
+        default=0,
+        min=0,
+    )
+    use_animated_seed: BoolProperty(
+        name="Animated Seed",
+        description="Add the frame number to the seed, so that the noise changes from frame to frame (as Cycles' animated seed)",
+        default=False,
+    )
     denoise: BoolProperty(
         name="Denoise",
         description="Denoise the frame with Intel Open Image Denoise (needs strahl built with `make oidn`; not with a border)",
@@ -106,6 +117,9 @@ class RENDER_PT_strahl(_StrahlRenderPanel, bpy.types.Panel):
         row = layout.row()
         row.active = settings.integrator == "path" and settings.use_adaptive_sampling
         row.prop(settings, "adaptive_threshold")
+        row = layout.row(align=True)
+        row.prop(settings, "seed")
+        row.prop(settings, "use_animated_seed", text="", icon="TIME")
         layout.prop(settings, "denoise")
         for prop in ("threads", "backend"):
             layout.prop(settings, prop)

@@ -204,6 +204,9 @@ fn check_scene(a: &SlurmArgs, scene: &Path, confine: Option<&Path>, m: &ArgMatch
     if let Some(&sampler) = m.get_one::<strahl::light::set::LightSampler>("light_sampler") {
         scene_data.render.light_sampler = sampler;
     }
+    if let Some(&seed) = m.get_one::<u32>("seed") {
+        scene_data.render.seed = seed;
+    }
     super::render::environment_options(
         scene_data,
         m.get_one::<String>("environment").map(String::as_str),

@@ -78,6 +78,12 @@ pub struct RenderArgs {
     /// docs/rendering.md) [default: off].
     #[arg(long, value_name = "T", allow_negative_numbers = true)]
     adaptive_threshold: Option<f32>,
+    /// The seed of every pixel's sample sequence, 0 to 2147483647: renders of one scene with
+    /// different seeds have independent noise (an animation: the frame number, as Cycles'
+    /// animated seed) [default: the scene's `[render] seed`, else 0].
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(0..=strahl::scene::MAX_SEED as i64))]
+    seed: Option<u32>,
     /// The radiance from far away along rays that leave the scene (overrides the scene's
     /// `[environment]`): an equirectangular map (OpenEXR or Radiance .hdr, Blender's
     /// orientation; see docs/lights.md), or a constant colour R,G,B.
@@ -229,6 +235,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         clamp: args.clamp,
         light_sampler: args.light_sampler,
         adaptive_threshold: args.adaptive_threshold,
+        seed: args.seed,
     };
     let job = RenderJob::new(&args.scene, loaded.scene, settings)?;
     if let Some(line) = job.complete(&Observer { progress: &|_| {}, note: &|line| eprintln!("{line}") })? {

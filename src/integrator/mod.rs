@@ -63,6 +63,7 @@ use crate::output::film::Film;
 use crate::output::ids::ObjectIds;
 use crate::output::passes::Pass;
 use crate::output::region::Region;
+use crate::sampling::seeded_pixel;
 use crate::scene::{IntegratorKind, MAX_DEPTH_LIMIT, Scene};
 use pixel::PixelAccumulator;
 
@@ -129,8 +130,9 @@ pub trait Integrator: Sync {
     /// One pixel's sampler.
     type Sampler: PixelSamples;
 
-    /// The sampler of the pixel with index `pixel_index` (`y·W + x`) for `spp` samples; `lens`
-    /// when the camera has an aperture. It may depend on nothing else.
+    /// The sampler of the pixel with index `pixel_index` (`y·W + x`, the render's seed folded
+    /// in: [`seeded_pixel`]) for `spp` samples; `lens` when the camera has an aperture. It may
+    /// depend on nothing else.
     fn sampler(&self, spp: u32, pixel_index: u64, lens: bool) -> Self::Sampler;
 
     /// Shades one round: `out[i]` for the camera ray `rays[i]`, whose closest hit is `hits[i]`
@@ -285,8 +287,11 @@ fn render_tile<A: Accel, I: Integrator>(
     let mut pixels = traced.pixels_in_packet_order();
     let spp = scene.image.spp;
     let lens = camera.has_lens();
-    let mut samplers: Vec<I::Sampler> =
-        pixels.iter().map(|&(x, y)| integrator.sampler(spp, y as u64 * width + x as u64, lens)).collect();
+    let seed = scene.render.seed;
+    let mut samplers: Vec<I::Sampler> = pixels
+        .iter()
+        .map(|&(x, y)| integrator.sampler(spp, seeded_pixel(y as u64 * width + x as u64, seed), lens))
+        .collect();
     let mut accumulators = vec![PixelAccumulator::default(); pixels.len()];
     let mut counts = RayCounts::default();
     let mut rays = Vec::with_capacity(pixels.len());

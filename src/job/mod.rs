@@ -181,6 +181,8 @@ pub struct Settings {
     /// Adaptive sampling's noise threshold (overrides `[render] adaptive_threshold`; 0 turns
     /// it off).
     pub adaptive_threshold: Option<f32>,
+    /// The seed of the sample sequences (overrides `[render] seed`).
+    pub seed: Option<u32>,
 }
 
 /// A render ready to run: its scene with the settings applied, and everything checked.
@@ -243,6 +245,7 @@ impl RenderJob {
         scene.render.integrator = settings.integrator.unwrap_or(scene.render.integrator);
         scene.render.clamp = settings.clamp.or(scene.render.clamp);
         scene.render.light_sampler = settings.light_sampler.unwrap_or(scene.render.light_sampler);
+        scene.render.seed = settings.seed.unwrap_or(scene.render.seed);
         if let Some(threshold) = settings.adaptive_threshold {
             scene.render.set_adaptive_threshold(threshold);
         }

@@ -14,6 +14,7 @@
 //! | `strahl/lightSampler` | string | the path tracer's light selection, `tree` or `power` (path tracer only) |
 //! | `strahl/clamp` | float | the path tracer's clamp of indirect samples (only when set) |
 //! | `strahl/adaptiveThreshold` | float | adaptive sampling's noise threshold (only when on) |
+//! | `strahl/seed` | int | the seed of the sample sequences (only when not 0) |
 //! | `strahl/backend` | string | `embree` or `native` |
 //! | `strahl/scene` | string | the scene file's name, without its folder ([`scene_entry`]) |
 //! | `strahl/sceneHash` | string | [`crate::scene::hash::scene_hash_hex`]: 16 hex digits |
@@ -131,6 +132,9 @@ pub fn attributes(scene: &Scene, info: &RenderInfo) -> Vec<(String, Attribute)> 
         if let Some(adaptive) = &scene.render.adaptive {
             out.push(("strahl/adaptiveThreshold".into(), Attribute::Float(adaptive.threshold)));
         }
+    }
+    if scene.render.seed != 0 {
+        out.push(("strahl/seed".into(), Attribute::Int(scene.render.seed as i32)));
     }
     if let Some(name) = &scene.names.camera {
         out.push(("Camera".into(), text(name)));

@@ -10,6 +10,12 @@
 //! ```
 //!
 //! Directions are in a local frame whose `z` is the normal; `u` lies in `[0, 1)²`.
+//!
+//! Every pixel's samplers are keyed by [`seeded_pixel`]: the pixel's index `y·W + x`, with the
+//! render's seed (`[render] seed`, `--seed`) folded in as `index ⊕ splitmix64(seed)`; seed 0
+//! keys a pixel by its index alone. The samplers hash their key, so another seed gives every
+//! pixel an independent sequence (Cycles' `seed`; an animation renders each frame with its own
+//! seed, as Cycles' animated seed does, so that its noise does not stand still).
 
 pub mod chi2;
 pub mod distribution;
@@ -20,6 +26,13 @@ pub mod spherical_triangle;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
 use crate::math::{Vec2, Vec3};
+
+/// The key of pixel `index` (`y·W + x`) under the render's `seed` (module docs): `index`
+/// itself for seed 0, `index ⊕ splitmix64(seed)` otherwise.
+#[inline]
+pub fn seeded_pixel(index: u64, seed: u32) -> u64 {
+    if seed == 0 { index } else { index ^ sobol::splitmix64(seed as u64) }
+}
 
 /// Shirley and Chiu's concentric map of the square onto the unit disk: area-preserving, and
 /// neighbouring points stay neighbours (good for stratified samples).

@@ -72,7 +72,7 @@ pub fn check_spp(spp: u32) -> Result<(), String> {
 
 /// SplitMix64's finaliser (Steele et al.): a bijective 64-bit mix.
 #[inline]
-fn splitmix64(x: u64) -> u64 {
+pub(crate) fn splitmix64(x: u64) -> u64 {
     let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

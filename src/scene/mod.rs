@@ -154,7 +154,7 @@ impl IntegratorKind {
 }
 
 /// How a scene is rendered beyond the image settings (`[render]`): the integrator, the path
-/// tracer's clamp and adaptive sampling.
+/// tracer's clamp, adaptive sampling, the light sampler and the seed.
 #[derive(Clone, Copy, Default, PartialEq)]
 pub struct RenderSpec {
     pub integrator: IntegratorKind,
@@ -167,7 +167,15 @@ pub struct RenderSpec {
     /// How the path tracer chooses a light per shading point (`[render] light_sampler`,
     /// [`crate::light::set`]).
     pub light_sampler: crate::light::set::LightSampler,
+    /// The seed of every pixel's sample sequence (`[render] seed`, `--seed`; 0 by default, at
+    /// most [`MAX_SEED`]):
+    /// renders with different seeds have independent noise ([`crate::sampling::seeded_pixel`]).
+    pub seed: u32,
 }
+
+/// The largest seed (`[render] seed`, `--seed`): a non-negative 32-bit signed integer, as
+/// Blender's (and Cycles') seed and the EXR header's `strahl/seed` hold it.
+pub const MAX_SEED: u32 = i32::MAX as u32;
 
 /// Adaptive sampling as the user sets it, Cycles' two settings: the noise threshold and the
 /// minimum samples (0: Cycles' automatic rule). [`crate::integrator::adaptive::Adaptive`]
@@ -193,12 +201,15 @@ impl RenderSpec {
         if let Some(c) = self.clamp.filter(|c| !(c.is_finite() && *c > 0.0)) {
             return Some(format!("clamp {c} must be finite and > 0"));
         }
+        if self.seed > MAX_SEED {
+            return Some(format!("seed {} is more than {MAX_SEED}", self.seed));
+        }
         let t = self.adaptive.map(|a| a.threshold)?;
         (!(t.is_finite() && t > 0.0)).then(|| format!("adaptive_threshold {t} must be finite and > 0 (0 turns it off)"))
     }
 }
 
-/// The fields as text, adaptive sampling only when it is on: scene fingerprints
+/// The fields as text, adaptive sampling only when it is on, the seed only when not 0: scene fingerprints
 /// ([`hash`]) hash this text, and those of renders without it stay as they were.
 impl std::fmt::Debug for RenderSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -209,6 +220,9 @@ impl std::fmt::Debug for RenderSpec {
         }
         if self.light_sampler != Default::default() {
             d.field("light_sampler", &self.light_sampler);
+        }
+        if self.seed != 0 {
+            d.field("seed", &self.seed);
         }
         d.finish()
     }

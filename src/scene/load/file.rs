@@ -259,8 +259,8 @@ struct SceneFile {
 
 /// `[render]`: the integrator (`"path"`, the default, or `"whitted"`), the path tracer's
 /// `clamp` of indirect light, adaptive sampling (`adaptive_threshold`, 0 or absent: off;
-/// `adaptive_min_samples`, 0 or absent: automatic) and its `light_sampler` (`"tree"`, the
-/// default, or `"power"`).
+/// `adaptive_min_samples`, 0 or absent: automatic), its `light_sampler` (`"tree"`, the
+/// default, or `"power"`) and the `seed` of the sample sequences (0 to [`crate::scene::MAX_SEED`], default 0).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RenderFile {
@@ -269,6 +269,7 @@ struct RenderFile {
     adaptive_threshold: Option<Spanned<f64>>,
     adaptive_min_samples: Option<Spanned<u32>>,
     light_sampler: Option<Spanned<String>>,
+    seed: Option<Spanned<u32>>,
 }
 
 impl RenderFile {
@@ -285,6 +286,12 @@ impl RenderFile {
             spec.clamp = Some(*c.get_ref() as f32);
             if let Some(m) = spec.problem() {
                 return Err(at(c.span(), format!("render: {m}")));
+            }
+        }
+        if let Some(s) = &self.seed {
+            spec.seed = *s.get_ref();
+            if let Some(m) = spec.problem() {
+                return Err(at(s.span(), format!("render: {m}")));
             }
         }
         let min_samples = self.adaptive_min_samples.as_ref().map_or(0, |m| *m.get_ref());
