@@ -28,12 +28,18 @@
 //! normal maps ([`crate::surface::SurfacePoint::with_footprint`]: a mip level's texel is the
 //! mean of the texels it covers, decoded and normalised as one normal).
 //!
+//! **Untextured materials** ([`ConstantBsdfs`]): a PBR material without textures has the same
+//! lobes at every hit of a mesh without vertex colours, on each side (a glass's relative index
+//! is the side's): they are built once per side before rendering and copied into each
+//! vertex's BSDF, whose frame and geometric normal are the hit's. The copy holds exactly the
+//! values building them at the hit gives.
+//!
 //! The Whitted integrator does not come here: it shades the lecture fields of every material
 //! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).
 
 use crate::bsdf::{self, Bsdf, Frame, LectureParams};
-use crate::material::{TexCoords, Texture};
-use crate::math::Vec3;
+use crate::material::{Pbr, TexCoords, Texture};
+use crate::math::{Vec2, Vec3};
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
 
@@ -55,11 +61,58 @@ pub struct Shading {
     pub volume: Option<Volume>,
 }
 
+/// The lobes of the scene's untextured PBR materials, built once for each side (module
+/// header), by material index; `None` for the others.
+pub struct ConstantBsdfs {
+    lobes: Vec<Option<Box<[Bsdf; 2]>>>,
+}
+
+impl ConstantBsdfs {
+    /// The lobes of `scene`'s untextured PBR materials, `[back, front]`.
+    pub fn new(scene: &Scene) -> Self {
+        let build = |pbr: &Pbr, front_face: bool| {
+            let mut b = Bsdf::new(Frame::from_normal(Vec3::Z), Vec3::Z, front_face);
+            bsdf::gltf(&mut b, &pbr.params_at([Vec2::ZERO; 2], Vec3::ONE), Vec3::Z);
+            b
+        };
+        let lobes = scene
+            .materials
+            .iter()
+            .map(|m| match m.pbr.as_deref() {
+                Some(pbr) if !pbr.unlit && pbr.slots().next().is_none() => {
+                    Some(Box::new([build(pbr, false), build(pbr, true)]))
+                }
+                _ => None,
+            })
+            .collect();
+        ConstantBsdfs { lobes }
+    }
+
+    /// None: every BSDF is built at its hit.
+    pub fn empty() -> Self {
+        ConstantBsdfs { lobes: Vec::new() }
+    }
+
+    /// The lobes of material `m` at a hit on the side `front_face`, if they are constant there.
+    #[inline]
+    fn get(&self, m: u32, front_face: bool) -> Option<&Bsdf> {
+        self.lobes.get(m as usize)?.as_deref().map(|b| &b[front_face as usize])
+    }
+}
+
 /// Sets `out` to the BSDF, emission and volume of `sp` seen along `wo` (towards the viewer);
-/// `footprint` is the ray's width at the hit (world units; 0: a point sample). The material
-/// must exist: the scene is checked before rendering. `out` is filled in place, the caller's
-/// one per path: a BSDF is 632 bytes, and returning a new one would copy it at every vertex.
-pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32, out: &mut Shading) {
+/// `footprint` is the ray's width at the hit (world units; 0: a point sample); `constant` the
+/// scene's [`ConstantBsdfs`]. The material must exist: the scene is checked before rendering.
+/// `out` is filled in place, the caller's one per path: a BSDF is 632 bytes, and returning a
+/// new one would copy it at every vertex.
+pub fn shade_at(
+    scene: &Scene,
+    constant: &ConstantBsdfs,
+    sp: &SurfacePoint,
+    wo: Vec3,
+    footprint: f32,
+    out: &mut Shading,
+) {
     let m = &scene.materials[sp.material as usize];
     let coords = tex_coords(sp, wo, footprint);
     let frame = Frame::from_normal(sp.ns);
@@ -88,8 +141,12 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32, out:
         }
         Some(pbr) if pbr.unlit => out.emission = pbr.base_color_at(coords, sp.color),
         Some(pbr) => {
-            let params = pbr.params_at(coords, sp.color);
-            bsdf::gltf(&mut out.bsdf, &params, sp.n_coat);
+            // Untextured: the lobes are the same at every hit without vertex colours, where the
+            // coat's normal is the shading normal (no normal map moves either).
+            match constant.get(sp.material, sp.front_face) {
+                Some(lobes) if sp.color == Vec3::ONE && sp.n_coat == sp.ns => out.bsdf.set_lobes(lobes),
+                _ => bsdf::gltf(&mut out.bsdf, &pbr.params_at(coords, sp.color), sp.n_coat),
+            }
             if !one_sided_back {
                 out.emission = pbr.emission_at(coords);
             }
@@ -102,4 +159,81 @@ pub fn shade_at(scene: &Scene, sp: &SurfacePoint, wo: Vec3, footprint: f32, out:
 /// there (module header): its texture coordinates and the footprint's width in each set's units.
 pub fn tex_coords(sp: &SurfacePoint, wo: Vec3, footprint: f32) -> TexCoords {
     TexCoords::through_cone(sp.uv, sp.uv_density, sp.ng, wo, footprint)
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    use super::*;
+    use crate::bsdf::PbrParams;
+    use crate::material::Material;
+
+    /// One material of every lobe kind glTF builds, and mixtures of them.
+    fn materials() -> Vec<PbrParams> {
+        let d = PbrParams::default();
+        vec![
+            PbrParams { base_color: Vec3::new(0.8, 0.3, 0.2), metallic: 0.0, roughness: 0.5, ..d },
+            PbrParams { base_color: Vec3::new(0.9, 0.7, 0.4), metallic: 1.0, roughness: 0.2, ..d },
+            PbrParams { base_color: Vec3::new(0.5, 0.5, 0.9), metallic: 0.4, roughness: 0.7, specular: 0.0, ..d },
+            PbrParams { metallic: 0.0, transmission: 1.0, roughness: 0.0, ior: 1.5, ..d },
+            PbrParams { metallic: 0.0, transmission: 0.6, roughness: 0.3, ior: 1.33, ..d },
+            PbrParams { clearcoat: 1.0, clearcoat_roughness: 0.1, sheen_color: Vec3::new(0.3, 0.2, 0.1), ..d },
+        ]
+    }
+
+    /// The prebuilt lobes, given the hit's frame, are the lobes built at the hit: `eval`,
+    /// `pdf` and `sample` agree bit for bit on both sides, in random frames and directions.
+    #[test]
+    fn prebuilt_lobes_are_the_lobes_built_at_the_hit() {
+        let mut scene = Scene::default();
+        for p in materials() {
+            let pbr = crate::material::Pbr { factors: p, ..Default::default() };
+            scene.materials.push(Material { pbr: Some(Box::new(pbr)), ..Default::default() });
+        }
+        let constant = ConstantBsdfs::new(&scene);
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        let mut unit = |rng: &mut Pcg64Mcg| {
+            Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize()
+        };
+        let mut compared = 0;
+        for (k, p) in materials().iter().enumerate() {
+            for front_face in [false, true] {
+                let template = constant.get(k as u32, front_face).expect("untextured materials are prebuilt");
+                for _ in 0..200 {
+                    let n = unit(&mut rng);
+                    let frame = Frame::from_normal(n);
+                    let mut built = Bsdf::new(frame, n, front_face);
+                    bsdf::gltf(&mut built, p, n);
+                    let mut copied = Bsdf::new(frame, n, front_face);
+                    copied.set_lobes(template);
+                    let (wo, wi) = (unit(&mut rng), unit(&mut rng));
+                    let (wo, wi) = (if wo.dot(n) < 0.0 { -wo } else { wo }, wi);
+                    assert_eq!(format!("{:?}", built.eval(wo, wi)), format!("{:?}", copied.eval(wo, wi)));
+                    assert_eq!(built.pdf(wo, wi).to_bits(), copied.pdf(wo, wi).to_bits());
+                    let u = (rng.random::<f32>(), Vec2::new(rng.random(), rng.random()));
+                    let (a, b) = (built.sample(wo, u.0, u.1), copied.sample(wo, u.0, u.1));
+                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "material {k}, front {front_face}");
+                    compared += a.is_some() as u32;
+                }
+            }
+        }
+        assert!(compared > 1000, "{compared} samples compared");
+        // A textured material is built at every hit.
+        let mut textured = scene.clone();
+        let image = crate::texture::Image::from_texels("white.png", 1, 1, vec![Vec3::ONE]).unwrap();
+        let w = crate::texture::Wrap::Repeat;
+        let texture = crate::texture::ImageTexture {
+            image: image.into(),
+            wrap_u: w,
+            wrap_v: w,
+            factor: Vec3::ONE,
+            mipmaps: true,
+        };
+        textured.materials[0].pbr.as_mut().unwrap().base_color_texture =
+            Some(crate::material::TextureSlot::plain(texture));
+        let constant = ConstantBsdfs::new(&textured);
+        assert!(constant.get(0, true).is_none() && constant.get(1, true).is_some());
+    }
 }

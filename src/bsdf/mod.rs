@@ -403,6 +403,19 @@ impl Bsdf {
         *self = Bsdf::new(frame, ng, front_face);
     }
 
+    /// Gives this BSDF `template`'s lobes and their layering, keeping its own frame and
+    /// geometric normal: for lobes that do not depend on the frame (no [`Lobe::Tilted`]) and
+    /// were built for this side ([`crate::shading::ConstantBsdfs`]).
+    #[inline]
+    pub fn set_lobes(&mut self, template: &Bsdf) {
+        debug_assert!(!template.tilted && template.front_face == self.front_face);
+        self.sheen = template.sheen;
+        self.coat = template.coat;
+        self.tilted = template.tilted;
+        self.under = template.under;
+        self.lobes.clone_from(&template.lobes);
+    }
+
     /// Adds a lobe (ignored past [`MAX_LOBES`]; the constructors never exceed it).
     pub(crate) fn push(&mut self, lobe: Lobe) -> usize {
         let k = self.lobes.len();

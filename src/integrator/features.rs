@@ -35,7 +35,7 @@ use crate::accel::{Accel, Hit, TraceError};
 use crate::integrator::RayCounts;
 use crate::math::{Ray, Vec3, offset_ray_origin};
 use crate::scene::Scene;
-use crate::shading::{Shading, shade_at};
+use crate::shading::{ConstantBsdfs, Shading, shade_at};
 use crate::surface::SurfacePoint;
 
 /// The most rays traced for one camera ray's features, beyond the camera ray.
@@ -74,6 +74,7 @@ fn background(scene: &Scene, dir: Vec3) -> Vec3 {
 /// The features of the camera ray `ray`, whose closest hit is `hit` (module docs).
 pub fn denoising_features<A: Accel>(
     scene: &Scene,
+    constant: &ConstantBsdfs,
     accel: &A,
     ray: &Ray,
     hit: Option<&Hit>,
@@ -93,7 +94,7 @@ pub fn denoising_features<A: Accel>(
             continue;
         };
         let sp = SurfacePoint::new(scene, &ray, &h);
-        shade_at(scene, &sp, -ray.dir, 0.0, &mut shading);
+        shade_at(scene, constant, &sp, -ray.dir, 0.0, &mut shading);
         albedo += carried * as_albedo(shading.emission);
         let split = shading.bsdf.denoising_split(-ray.dir);
         let branches = [split.reflect, split.transmit];

@@ -65,6 +65,7 @@ use crate::output::passes::Pass;
 use crate::output::region::Region;
 use crate::sampling::seeded_pixel;
 use crate::scene::{IntegratorKind, MAX_DEPTH_LIMIT, Scene};
+use crate::shading::ConstantBsdfs;
 use pixel::PixelAccumulator;
 
 /// Rays traced, by kind, for the summary the command prints.
@@ -300,6 +301,8 @@ fn render_tile<A: Accel, I: Integrator>(
     // Written in place every round (a 160-byte value returned per pixel cost a memcpy call).
     let mut samples = vec![CameraSample::default(); pixels.len()];
     let mut scratch = I::Scratch::default();
+    // The untextured materials' lobes for the denoising features (the integrators keep their own).
+    let constant = if features { ConstantBsdfs::new(scene) } else { ConstantBsdfs::empty() };
     // The pixels still sampling are the first `n` of `pixels`, `samplers` and `accumulators`.
     let mut n = pixels.len();
     for sample in 0..spp {
@@ -324,7 +327,14 @@ fn render_tile<A: Accel, I: Integrator>(
         }
         if features {
             for ((acc, ray), hit) in accumulators.iter_mut().zip(&rays).zip(hits.iter()) {
-                acc.add_features(features::denoising_features(scene, accel, ray, hit.as_ref(), &mut counts)?);
+                acc.add_features(features::denoising_features(
+                    scene,
+                    &constant,
+                    accel,
+                    ray,
+                    hit.as_ref(),
+                    &mut counts,
+                )?);
             }
         }
         if let Some(rule) = adaptive.as_ref().filter(|rule| rule.tests_after(sample)) {

@@ -67,7 +67,7 @@ use crate::bsdf::{BsdfEval, LobeFlags};
 use crate::math::{Ray, Vec2, Vec3, offset_ray_origin};
 use crate::sampling::sobol::{CAMERA_DIMS, Sobol};
 use crate::scene::Scene;
-use crate::shading::{Shading, shade_at};
+use crate::shading::{ConstantBsdfs, Shading, shade_at};
 use crate::surface::SurfacePoint;
 
 /// Vertices before Russian roulette may end a path (module docs).
@@ -82,6 +82,8 @@ pub struct PathTracer<'a, A: Accel> {
     split: bool,
     /// The camera rays' cone, for texture filtering at the first hit ([`crate::shading`]).
     cone: crate::camera::RayCone,
+    /// The untextured materials' lobes, built once ([`crate::shading`]).
+    constant: ConstantBsdfs,
 }
 
 /// A pixel's Sobol sequence, as the tile loop draws the camera ray from it.
@@ -147,7 +149,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let img = &scene.image;
         let camera = crate::camera::Camera::new(&scene.camera, img.width, img.height);
         let cone = camera.map_or(Default::default(), |c| c.ray_cone().per_sample(img.spp));
-        PathTracer { scene, accel, lights: PathLights::new(scene), split: scene.output.passes.any_light(), cone }
+        let (lights, constant) = (PathLights::new(scene), ConstantBsdfs::new(scene));
+        PathTracer { scene, accel, lights, split: scene.output.passes.any_light(), cone, constant }
     }
 
     /// `c` added to `l`, clamped when it is indirect light and a clamp is set (module docs);
@@ -240,7 +243,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             };
             let wo = -ray.dir;
             let footprint = if depth == 0 { self.cone.width_at(sp.t * ray.dir.length()) } else { 0.0 };
-            shade_at(scene, &sp, wo, footprint, &mut shading);
+            shade_at(scene, &self.constant, &sp, wo, footprint, &mut shading);
             if depth == 0 {
                 first = Some(FirstHit::new(&sp, &h, shading.bsdf.colors()));
             }

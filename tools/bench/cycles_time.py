@@ -8,7 +8,7 @@ against Cycles: time to the same error"; `make bench-cycles` runs it on both sce
     #   --strahl target/release/strahl (cargo build --release)
     #   --size 240x135 --spp 4,16,64,256 --adaptive-spp 128,512 --reference-spp 1024 --threads 2
     #   --sps-size 1920x1080 --sps-spp 1,4 --sps-threads 1,2 --target 0.1,0.05,0.02 --depth 8
-    #   --only sps|error (one half of the runs)
+    #   --only sps|error (one half of the runs) --seeds 1
 
 Needs `blender` (3.4, run headless with `-b`), python3 with numpy and OpenEXR, and a release
 strahl. Every run's record is kept in WORK/SCENE/runs.json, so an interrupted benchmark resumes
@@ -61,6 +61,12 @@ before and after each run.
   sampling alone (u·N of the error runs' own line for the uniform runs, the run's CPU time
   less U0 for the adaptive ones; U0 is printed beside it); a target outside the runs' range is extrapolated along the line and marked so.
   The time to a given error scales with the pixel count; the figures are for `--size`.
+- `--seeds K`: every test run of the error half is made K times, with K seeds (strahl's
+  `--seed`: 0 to K - 1; Cycles' seed: 0, then 2 to K, 1 being its reference's), and the
+  squared errors and CPU times of a setting are the means over its K runs. One run's squared
+  error on a scene with caustics moves by several percent with its rare bright samples (on
+  *cornell* at 64 spp, eight runs of either renderer spread over -4 % to +6 % of their mean);
+  the standard error of the K runs' mean is printed beside it.
 """
 
 import argparse
@@ -178,11 +184,12 @@ class Bench:
         cmd += ["--", self.dir, f"{w}x{h}", "0", str(self.args.depth)] + flags
         timed(cmd, os.path.join(self.dir, "export.log"))
 
-    def run(self, renderer, size, spp, threads, kind="test"):
+    def run(self, renderer, size, spp, threads, kind="test", seed=0):
         """One render (cached): `renderer` strahl | strahl-adaptive | cycles | cycles-adaptive; `kind` test |
-        reference. Returns its record."""
+        reference; `seed` the test run's seed (strahl's `--seed`; Cycles' seed, 0 where it is 0).
+        Returns its record."""
         w, h = size
-        key = f"{renderer}-{kind}-{w}x{h}-{spp}spp-{threads}t"
+        key = f"{renderer}-{kind}-{w}x{h}-{spp}spp-{threads}t" + (f"-seed{seed}" if seed else "")
         done = self.records().get(key)
         if done is not None and os.path.exists(done["exr"]):
             return done
@@ -196,12 +203,12 @@ class Bench:
             cmd = [self.args.strahl, "render", self.gltf, "-o", exr, "--width", str(w), "--height", str(h)]
             cmd += ["--spp", str(spp_run), "--depth", str(self.args.depth), "--threads", str(threads)]
             cmd += ["--integrator", "path", "--passes", "combined,variance" if kind == "reference" else "combined"]
-            cmd += ["--progress-interval", "30"]
+            cmd += ["--progress-interval", "30"] + (["--seed", str(seed)] if seed else [])
             if renderer == "strahl-adaptive":
                 cmd += ["--adaptive-threshold", str(self.args.strahl_threshold)]
         else:
             adaptive = renderer == "cycles-adaptive"
-            seed = 1 if kind == "reference" else 0
+            seed = 1 if kind == "reference" else seed
             setup = (
                 "import bpy; s = bpy.context.scene; c = s.cycles; "
                 f"c.samples = {spp}; c.seed = {seed}; c.use_adaptive_sampling = {adaptive}; "
@@ -216,7 +223,7 @@ class Bench:
             os.replace(exr[: -len(".exr")] + "-1.exr", exr)
         record.update(self.phases(renderer, exr, log))
         record.update({"exr": exr, "renderer": renderer, "kind": kind, "width": size[0], "height": size[1]})
-        record.update({"spp": spp, "threads": threads})
+        record.update({"spp": spp, "threads": threads, "seed": seed})
         print(
             f" wall {record['wall']:.1f} s, CPU {record['user'] + record['sys']:.1f} s, "
             f"setup {record['setup']:.2f} s, sampling {record['sampling']:.1f} s, load {record['load_before']:.1f}",
@@ -272,6 +279,35 @@ def mse_fit(ns, mses):
 
 def cpu(record):
     return record["user"] + record["sys"]
+
+
+def seeds_of(renderer, k):
+    """The seeds of a setting's K test runs: strahl 0 to K - 1; Cycles 0, then 2 to K (its
+    reference has seed 1)."""
+    if renderer.startswith("strahl"):
+        return list(range(k))
+    return [0] + list(range(2, k + 1))
+
+
+def mean_over_seeds(runs, mses):
+    """One record per spp: the runs' mean CPU time and load, and the mean of their squared
+    errors with its standard error (0 for one run)."""
+    by_spp = {}
+    for r, m in zip(runs, mses):
+        by_spp.setdefault(r["spp"], []).append((r, m))
+    out, means, spread = [], [], []
+    for spp in sorted(by_spp):
+        group = by_spp[spp]
+        r = dict(group[0][0])
+        for field in ["user", "sys", "wall", "setup", "sampling"]:
+            r[field] = float(np.mean([g[0][field] for g in group]))
+        r["load_before"] = min(g[0]["load_before"] for g in group)
+        r["load_after"] = max(g[0]["load_after"] for g in group)
+        ms = np.array([g[1] for g in group])
+        out.append(r)
+        means.append(float(ms.mean()))
+        spread.append(float(ms.std(ddof=1) / math.sqrt(len(ms))) if len(ms) > 1 else 0.0)
+    return out, means, spread
 
 
 def sps(bench):
@@ -341,7 +377,8 @@ def error(bench):
         ordered += here if i % 2 == 0 else here[::-1]
     runs = {"strahl": [], "cycles": [], "strahl-adaptive": [], "cycles-adaptive": []}
     for renderer, n in ordered:
-        runs[renderer].append(bench.run(renderer, size, n, threads))
+        for seed in seeds_of(renderer, args.seeds):
+            runs[renderer].append(bench.run(renderer, size, n, threads, seed=seed))
 
     images = {}
     for name, ref in refs.items():
@@ -352,7 +389,8 @@ def error(bench):
         ref_img, ref_var = images[base]
         rs = sorted(rs, key=lambda r: r["spp"])
         mses = [float(((bench.image(r)[0] - ref_img) ** 2).mean()) for r in rs]
-        results[renderer] = {"runs": rs, "mses": mses, "mean": float(ref_img.mean())}
+        rs, mses, spread = mean_over_seeds(rs, mses)
+        results[renderer] = {"runs": rs, "mses": mses, "spread": spread, "mean": float(ref_img.mean())}
     # The reference's own noise: the fit's constant for both renderers (over the runs of 16 spp
     # and more, where a/N holds best: the first samples of a low-discrepancy sequence converge
     # faster), and for strahl also its reference's variance pass.
@@ -387,15 +425,16 @@ def error(bench):
             f"{renderer}: CPU time = {results[renderer]['u0']:.2f} s + {results[renderer]['u']:.3f} s x spp; "
             f"reference: {cpu(refs[renderer]):.1f} s CPU, wall {refs[renderer]['wall']:.1f} s"
         )
+    print(f"{args.seeds} run(s) per setting: CPU times and squared errors are their means")
     print(
         "| renderer | spp | CPU s (whole run) | CPU s sampling | setup (wall) | RMSE / mean, raw | "
-        "less the reference's noise (fit) | (variance pass) | load |"
+        "MSE's standard error over the runs | less the reference's noise (fit) | (variance pass) | load |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     lines = {}
     for renderer, res in results.items():
         points = {variant: [] for variant in subtract[renderer]}
-        for r, m in zip(res["runs"], res["mses"]):
+        for r, m, sd in zip(res["runs"], res["mses"], res["spread"]):
             # Uniform runs: the line's u·N (a small run's CPU time less U0 is mostly noise);
             # adaptive runs, whose samples per pixel vary: the run's CPU time less U0.
             sampling_cpu = res["u"] * r["spp"] if "u" in res else cpu(r) - res["u0"]
@@ -405,7 +444,7 @@ def error(bench):
             vp = f"{100 * rel['variance pass']:.2f} %" if "variance pass" in rel else "–"
             print(
                 f"| {renderer} | {r['spp']} | {cpu(r):.1f} | {sampling_cpu:.1f} | {r['setup']:.2f} s | "
-                f"{100 * math.sqrt(m) / res['mean']:.2f} % | {100 * rel['fit']:.2f} % | {vp} | "
+                f"{100 * math.sqrt(m) / res['mean']:.2f} % | {100 * sd / m:.1f} % | {100 * rel['fit']:.2f} % | {vp} | "
                 f"{r['load_before']:.1f}–{r['load_after']:.1f} |"
             )
         for v, pts in points.items():
@@ -452,6 +491,7 @@ def main():
     p.add_argument("--target", default="0.1,0.05,0.02")
     p.add_argument("--depth", type=int, default=8)
     p.add_argument("--only", choices=["sps", "error"])
+    p.add_argument("--seeds", type=int, default=1, help="test runs per setting of the error half, each with its own seed")
     args = p.parse_args()
     if shutil.which("blender") is None:
         print("bench-cycles: skipped, blender is not installed (apt-get install blender python3-numpy)")
