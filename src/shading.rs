@@ -194,7 +194,7 @@ mod tests {
         }
         let constant = ConstantBsdfs::new(&scene);
         let mut rng = Pcg64Mcg::seed_from_u64(3);
-        let mut unit = |rng: &mut Pcg64Mcg| {
+        let unit = |rng: &mut Pcg64Mcg| {
             Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize()
         };
         let mut compared = 0;
