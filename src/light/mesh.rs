@@ -75,9 +75,12 @@ impl MeshEmitter {
         };
         let mut total = 0.0;
         for (prim, (corners, l)) in triangles.into_iter().enumerate() {
+            if l == Vec3::ZERO {
+                continue;
+            }
             let [a, b, c] = corners.map(|p| p.as_dvec3());
             let area = 0.5 * (b - a).cross(c - a).length();
-            if area > 0.0 && area.is_finite() && l != Vec3::ZERO {
+            if area > 0.0 && area.is_finite() {
                 total += area;
                 e.prims.push(prim as u32);
                 e.corners.push([a, b, c]);
