@@ -89,25 +89,25 @@ pub fn mesh_emitters(scene: &Scene) -> Vec<MeshEmitter> {
         return Vec::new();
     }
     let samples = scene.image.mesh_light_samples.max(1);
+    // Each material's radiance as an emitter: its emission if finite, 0 for an area light's.
+    let radiance: Vec<Vec3> = scene
+        .materials
+        .iter()
+        .map(|m| if !m.area_light && m.emission.is_finite() { m.emission } else { Vec3::ZERO })
+        .collect();
+    let radiance = |m: u32| radiance.get(m as usize).copied().unwrap_or(Vec3::ZERO);
+    // Every triangle is given (those that do not emit with radiance 0, which the emitter
+    // leaves out, their corners not read), so the emitter knows its triangles by their index
+    // in the mesh; a mesh none of whose materials emits is passed over.
     let emitting = |mesh: &crate::scene::Mesh, i: usize| {
-        let material = scene.materials.get(mesh.material_of(i) as usize);
-        let l = material.map_or(Vec3::ZERO, |m| m.emission);
-        let area_light = material.is_some_and(|m| m.area_light);
-        let l = if !area_light && l.is_finite() { l } else { Vec3::ZERO };
-        // A triangle that does not emit is left out by the emitter: its corners are not read.
+        let l = radiance(mesh.material_of(i));
         (if l == Vec3::ZERO { [Vec3::ZERO; 3] } else { mesh.triangle(i) }, l)
     };
-    // Every triangle is given (those that do not emit with radiance 0, which the emitter
-    // leaves out), so the emitter knows its triangles by their index in the mesh.
-    // A mesh none of whose materials emits is passed over without reading its triangles.
-    let emits: Vec<bool> =
-        scene.materials.iter().map(|m| !m.area_light && m.emission.is_finite() && m.emission != Vec3::ZERO).collect();
-    let emits = |m: u32| emits.get(m as usize).copied().unwrap_or(false);
     let meshes = scene.meshes.iter().enumerate();
     meshes
         .filter(|(_, mesh)| match &mesh.triangle_materials {
-            None => emits(mesh.material),
-            Some(per_triangle) => per_triangle.iter().any(|&m| emits(m)),
+            None => radiance(mesh.material) != Vec3::ZERO,
+            Some(per_triangle) => per_triangle.iter().any(|&m| radiance(m) != Vec3::ZERO),
         })
         .filter_map(|(k, mesh)| {
             let e = MeshEmitter::new(k as u32, samples, (0..mesh.indices.len()).map(|i| emitting(mesh, i)))?;
