@@ -280,13 +280,7 @@ fn the_panels_animated_seed_is_the_seed_plus_the_frame() {
     let expr = "import bpy; s = bpy.context.scene.strahl; s.seed = 3; s.use_animated_seed = True";
     let out = render(room, "seeded", Some(expr), &["-f", "1"]);
     let (_, _, blender) = read_exr(&out.join("frame_0001.exr"));
-    let exr = room.dir.path("seed4.exr");
-    let gltf = room.dir.path("reference/scene.gltf");
-    let mut args = vec!["render".to_string(), gltf.display().to_string(), "-o".into(), exr.display().to_string()];
-    args.extend(room_settings(&room.camera));
-    args.extend(["--seed".to_string(), "4".to_string()]);
-    check(&strahl(&args.iter().map(String::as_str).collect::<Vec<_>>()), "seed4");
-    let (_, _, seeded) = read_exr(&exr);
+    let seeded = strahl_own(room, &room.dir.path("reference/scene.gltf"), "seed4.exr", None, &["--seed", "4"]);
     let (_, _, unseeded) = read_exr(&room.reference);
     let r = |c: &[(String, Vec<f32>)]| bits(channel(c, "ViewLayer.Combined.R"));
     assert_eq!(r(&blender), r(&seeded), "frame 1 of seed 3 is strahl's render with --seed 4");
