@@ -28,17 +28,17 @@
 //! normal maps ([`crate::surface::SurfacePoint::with_footprint`]: a mip level's texel is the
 //! mean of the texels it covers, decoded and normalised as one normal).
 //!
-//! **Untextured materials** ([`ConstantBsdfs`]): a PBR material without textures has the same
-//! lobes at every hit of a mesh without vertex colours, on each side (a glass's relative index
-//! is the side's): they are built once per side before rendering and copied into each
-//! vertex's BSDF, whose frame and geometric normal are the hit's. The copy holds exactly the
-//! values building them at the hit gives.
+//! **Untextured materials** ([`ConstantBsdfs`]): a PBR material without textures, and a lecture
+//! material of constant diffuse albedo, has the same lobes at every hit of a mesh without
+//! vertex colours, on each side (a glass's relative index is the side's): they are built once
+//! per side before rendering and copied into each vertex's BSDF, whose frame and geometric
+//! normal are the hit's. The copy holds exactly the values building them at the hit gives.
 //!
 //! The Whitted integrator does not come here: it shades the lecture fields of every material
 //! (a PBR material's closest lecture form, [`crate::material::Pbr::lecture_form`]).
 
 use crate::bsdf::{self, Bsdf, Frame, LectureParams};
-use crate::material::{Pbr, TexCoords, Texture};
+use crate::material::{TexCoords, Texture};
 use crate::math::{Vec2, Vec3};
 use crate::scene::Scene;
 use crate::surface::SurfacePoint;
@@ -61,26 +61,34 @@ pub struct Shading {
     pub volume: Option<Volume>,
 }
 
-/// The lobes of the scene's untextured PBR materials, built once for each side (module
-/// header), by material index; `None` for the others.
+/// The lobes of the scene's untextured materials, built once for each side (module header), by
+/// material index; `None` for the others.
 pub struct ConstantBsdfs {
     lobes: Vec<Option<Box<[Bsdf; 2]>>>,
 }
 
 impl ConstantBsdfs {
-    /// The lobes of `scene`'s untextured PBR materials, `[back, front]`.
+    /// The lobes of `scene`'s untextured materials, `[back, front]`.
     pub fn new(scene: &Scene) -> Self {
-        let build = |pbr: &Pbr, front_face: bool| {
-            let mut b = Bsdf::new(Frame::from_normal(Vec3::Z), Vec3::Z, front_face);
-            bsdf::gltf(&mut b, &pbr.params_at([Vec2::ZERO; 2], Vec3::ONE), Vec3::Z);
-            b
+        let both = |add: &dyn Fn(&mut Bsdf)| {
+            Box::new([false, true].map(|front_face| {
+                let mut b = Bsdf::new(Frame::from_normal(Vec3::Z), Vec3::Z, front_face);
+                add(&mut b);
+                b
+            }))
         };
         let lobes = scene
             .materials
             .iter()
-            .map(|m| match m.pbr.as_deref() {
-                Some(pbr) if !pbr.unlit && pbr.slots().next().is_none() => {
-                    Some(Box::new([build(pbr, false), build(pbr, true)]))
+            .map(|m| match (m.pbr.as_deref(), &m.diffuse) {
+                (Some(pbr), _) if !pbr.unlit && pbr.slots().next().is_none() => {
+                    let params = pbr.params_at([Vec2::ZERO; 2], Vec3::ONE);
+                    Some(both(&|b| bsdf::gltf(b, &params, Vec3::Z)))
+                }
+                (None, &Texture::Constant(albedo)) => {
+                    // `SurfacePoint::albedo` at a hit without vertex colours: `ρ · 1`.
+                    let params = lecture_params(m, albedo * Vec3::ONE);
+                    Some(both(&|b| bsdf::lecture(b, &params)))
                 }
                 _ => None,
             })
@@ -122,19 +130,18 @@ pub fn shade_at(
     out.volume = None;
     match m.pbr.as_deref() {
         None => {
-            let albedo = match &m.diffuse {
-                Texture::Image(_) if footprint > 0.0 => m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color,
-                _ => sp.albedo(scene),
-            };
-            let params = LectureParams {
-                albedo,
-                specular: m.specular,
-                shininess: m.shininess,
-                mirror: m.mirror,
-                transmission: m.transmission,
-                ior: m.ior,
-            };
-            bsdf::lecture(&mut out.bsdf, &params);
+            match constant.get(sp.material, sp.front_face) {
+                Some(lobes) if sp.color == Vec3::ONE => out.bsdf.set_lobes(lobes),
+                _ => {
+                    let albedo = match &m.diffuse {
+                        Texture::Image(_) if footprint > 0.0 => {
+                            m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color
+                        }
+                        _ => sp.albedo(scene),
+                    };
+                    bsdf::lecture(&mut out.bsdf, &lecture_params(m, albedo));
+                }
+            }
             if !one_sided_back {
                 out.emission = m.emission;
             }
@@ -152,6 +159,18 @@ pub fn shade_at(
             }
             out.volume = pbr.sigma_a().map(|sigma_a| Volume { sigma_a });
         }
+    }
+}
+
+/// The lecture BSDF's numbers of material `m` at a hit of diffuse albedo `albedo`.
+fn lecture_params(m: &crate::material::Material, albedo: Vec3) -> LectureParams {
+    LectureParams {
+        albedo,
+        specular: m.specular,
+        shininess: m.shininess,
+        mirror: m.mirror,
+        transmission: m.transmission,
+        ior: m.ior,
     }
 }
 
@@ -220,6 +239,43 @@ mod tests {
             }
         }
         assert!(compared > 1000, "{compared} samples compared");
+        // Lecture materials of constant albedo: Lambert, Blinn–Phong, mirror and glass.
+        let mut lecture = Scene::default();
+        let glassy = Material {
+            diffuse: Texture::Constant(Vec3::splat(0.1)),
+            transmission: Vec3::splat(0.8),
+            ior: 1.5,
+            ..Default::default()
+        };
+        let shiny = Material {
+            diffuse: Texture::Constant(Vec3::new(0.6, 0.3, 0.2)),
+            specular: Vec3::splat(0.3),
+            shininess: 40.0,
+            mirror: Vec3::splat(0.2),
+            ..Default::default()
+        };
+        lecture.materials.extend([glassy, shiny]);
+        let constant = ConstantBsdfs::new(&lecture);
+        for (k, m) in lecture.materials.iter().enumerate() {
+            let Texture::Constant(albedo) = m.diffuse else { unreachable!() };
+            for front_face in [false, true] {
+                let template = constant.get(k as u32, front_face).expect("constant albedo is prebuilt");
+                for _ in 0..200 {
+                    let n = unit(&mut rng);
+                    let frame = Frame::from_normal(n);
+                    let mut built = Bsdf::new(frame, n, front_face);
+                    bsdf::lecture(&mut built, &lecture_params(m, albedo));
+                    let mut copied = Bsdf::new(frame, n, front_face);
+                    copied.set_lobes(template);
+                    let (wo, wi) = (unit(&mut rng), unit(&mut rng));
+                    let wo = if wo.dot(n) < 0.0 { -wo } else { wo };
+                    assert_eq!(format!("{:?}", built.eval(wo, wi)), format!("{:?}", copied.eval(wo, wi)));
+                    let u = (rng.random::<f32>(), Vec2::new(rng.random(), rng.random()));
+                    let (a, b) = (built.sample(wo, u.0, u.1), copied.sample(wo, u.0, u.1));
+                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "lecture material {k}, front {front_face}");
+                }
+            }
+        }
         // A textured material is built at every hit.
         let mut textured = scene.clone();
         let image = crate::texture::Image::from_texels("white.png", 1, 1, vec![Vec3::ONE]).unwrap();
