@@ -96,15 +96,18 @@ impl ConstantBsdfs {
         ConstantBsdfs { lobes }
     }
 
-    /// None: every BSDF is built at its hit.
-    pub fn empty() -> Self {
-        ConstantBsdfs { lobes: Vec::new() }
-    }
-
-    /// The lobes of material `m` at a hit on the side `front_face`, if they are constant there.
+    /// The prebuilt lobes of material `m` for a hit on the side `front_face`.
     #[inline]
     fn get(&self, m: u32, front_face: bool) -> Option<&Bsdf> {
         self.lobes.get(m as usize)?.as_deref().map(|b| &b[front_face as usize])
+    }
+
+    /// The lobes at `sp`, if its material's are prebuilt and they hold there: no vertex colour
+    /// (it tints the albedo) and the coat's normal the shading normal (a normal map moves
+    /// neither on an untextured material; the check keeps the rule whole).
+    #[inline]
+    fn at(&self, sp: &SurfacePoint) -> Option<&Bsdf> {
+        self.get(sp.material, sp.front_face).filter(|_| sp.color == Vec3::ONE && sp.n_coat == sp.ns)
     }
 }
 
@@ -130,9 +133,9 @@ pub fn shade_at(
     out.volume = None;
     match m.pbr.as_deref() {
         None => {
-            match constant.get(sp.material, sp.front_face) {
-                Some(lobes) if sp.color == Vec3::ONE => out.bsdf.set_lobes(lobes),
-                _ => {
+            match constant.at(sp) {
+                Some(lobes) => out.bsdf.set_lobes(lobes),
+                None => {
                     let albedo = match &m.diffuse {
                         Texture::Image(_) if footprint > 0.0 => {
                             m.diffuse.albedo_at(sp.p, sp.ng_outward, coords) * sp.color
@@ -148,11 +151,9 @@ pub fn shade_at(
         }
         Some(pbr) if pbr.unlit => out.emission = pbr.base_color_at(coords, sp.color),
         Some(pbr) => {
-            // Untextured: the lobes are the same at every hit without vertex colours, where the
-            // coat's normal is the shading normal (no normal map moves either).
-            match constant.get(sp.material, sp.front_face) {
-                Some(lobes) if sp.color == Vec3::ONE && sp.n_coat == sp.ns => out.bsdf.set_lobes(lobes),
-                _ => bsdf::gltf(&mut out.bsdf, &pbr.params_at(coords, sp.color), sp.n_coat),
+            match constant.at(sp) {
+                Some(lobes) => out.bsdf.set_lobes(lobes),
+                None => bsdf::gltf(&mut out.bsdf, &pbr.params_at(coords, sp.color), sp.n_coat),
             }
             if !one_sided_back {
                 out.emission = pbr.emission_at(coords);
@@ -202,6 +203,35 @@ mod tests {
         ]
     }
 
+    /// `eval`, `pdf` and `sample` of material `k`'s prebuilt lobes, given 200 random frames,
+    /// against the lobes `build` adds at the hit, on both sides; the samples compared.
+    fn compare(constant: &ConstantBsdfs, k: usize, build: impl Fn(&mut Bsdf), rng: &mut Pcg64Mcg) -> u32 {
+        let unit = |rng: &mut Pcg64Mcg| {
+            Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize()
+        };
+        let mut compared = 0;
+        for front_face in [false, true] {
+            let template = constant.get(k as u32, front_face).expect("untextured materials are prebuilt");
+            for _ in 0..200 {
+                let n = unit(rng);
+                let frame = Frame::from_normal(n);
+                let mut built = Bsdf::new(frame, n, front_face);
+                build(&mut built);
+                let mut copied = Bsdf::new(frame, n, front_face);
+                copied.set_lobes(template);
+                let (wo, wi) = (unit(rng), unit(rng));
+                let wo = if wo.dot(n) < 0.0 { -wo } else { wo };
+                assert_eq!(format!("{:?}", built.eval(wo, wi)), format!("{:?}", copied.eval(wo, wi)));
+                assert_eq!(built.pdf(wo, wi).to_bits(), copied.pdf(wo, wi).to_bits());
+                let u = (rng.random::<f32>(), Vec2::new(rng.random(), rng.random()));
+                let (a, b) = (built.sample(wo, u.0, u.1), copied.sample(wo, u.0, u.1));
+                assert_eq!(format!("{a:?}"), format!("{b:?}"), "material {k}, front {front_face}");
+                compared += a.is_some() as u32;
+            }
+        }
+        compared
+    }
+
     /// The prebuilt lobes, given the hit's frame, are the lobes built at the hit: `eval`,
     /// `pdf` and `sample` agree bit for bit on both sides, in random frames and directions.
     #[test]
@@ -213,30 +243,9 @@ mod tests {
         }
         let constant = ConstantBsdfs::new(&scene);
         let mut rng = Pcg64Mcg::seed_from_u64(3);
-        let unit = |rng: &mut Pcg64Mcg| {
-            Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize()
-        };
         let mut compared = 0;
         for (k, p) in materials().iter().enumerate() {
-            for front_face in [false, true] {
-                let template = constant.get(k as u32, front_face).expect("untextured materials are prebuilt");
-                for _ in 0..200 {
-                    let n = unit(&mut rng);
-                    let frame = Frame::from_normal(n);
-                    let mut built = Bsdf::new(frame, n, front_face);
-                    bsdf::gltf(&mut built, p, n);
-                    let mut copied = Bsdf::new(frame, n, front_face);
-                    copied.set_lobes(template);
-                    let (wo, wi) = (unit(&mut rng), unit(&mut rng));
-                    let (wo, wi) = (if wo.dot(n) < 0.0 { -wo } else { wo }, wi);
-                    assert_eq!(format!("{:?}", built.eval(wo, wi)), format!("{:?}", copied.eval(wo, wi)));
-                    assert_eq!(built.pdf(wo, wi).to_bits(), copied.pdf(wo, wi).to_bits());
-                    let u = (rng.random::<f32>(), Vec2::new(rng.random(), rng.random()));
-                    let (a, b) = (built.sample(wo, u.0, u.1), copied.sample(wo, u.0, u.1));
-                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "material {k}, front {front_face}");
-                    compared += a.is_some() as u32;
-                }
-            }
+            compared += compare(&constant, k, |b| bsdf::gltf(b, p, b.frame().n), &mut rng);
         }
         assert!(compared > 1000, "{compared} samples compared");
         // Lecture materials of constant albedo: Lambert, Blinn–Phong, mirror and glass.
@@ -258,23 +267,7 @@ mod tests {
         let constant = ConstantBsdfs::new(&lecture);
         for (k, m) in lecture.materials.iter().enumerate() {
             let Texture::Constant(albedo) = m.diffuse else { unreachable!() };
-            for front_face in [false, true] {
-                let template = constant.get(k as u32, front_face).expect("constant albedo is prebuilt");
-                for _ in 0..200 {
-                    let n = unit(&mut rng);
-                    let frame = Frame::from_normal(n);
-                    let mut built = Bsdf::new(frame, n, front_face);
-                    bsdf::lecture(&mut built, &lecture_params(m, albedo));
-                    let mut copied = Bsdf::new(frame, n, front_face);
-                    copied.set_lobes(template);
-                    let (wo, wi) = (unit(&mut rng), unit(&mut rng));
-                    let wo = if wo.dot(n) < 0.0 { -wo } else { wo };
-                    assert_eq!(format!("{:?}", built.eval(wo, wi)), format!("{:?}", copied.eval(wo, wi)));
-                    let u = (rng.random::<f32>(), Vec2::new(rng.random(), rng.random()));
-                    let (a, b) = (built.sample(wo, u.0, u.1), copied.sample(wo, u.0, u.1));
-                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "lecture material {k}, front {front_face}");
-                }
-            }
+            compare(&constant, k, |b| bsdf::lecture(b, &lecture_params(m, albedo)), &mut rng);
         }
         // A textured material is built at every hit.
         let mut textured = scene.clone();

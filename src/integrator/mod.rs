@@ -229,6 +229,8 @@ pub fn trace_tiles<A: Accel, I: Integrator>(
     job: &TileJob,
 ) -> Result<(Film, RayCounts), RenderError> {
     let ids = ObjectIds::new(scene);
+    // The untextured materials' lobes for the denoising features (the path tracer keeps its own).
+    let constant = ConstantBsdfs::new(scene);
     let inside = film.region();
     if let Some(t) = job.tiles.iter().find(|t| t.intersection(&inside) != Some(**t)) {
         return Err(RenderError::InvalidScene(format!("tile {t} lies outside the film's region {inside}")));
@@ -242,7 +244,7 @@ pub fn trace_tiles<A: Accel, I: Integrator>(
             if job.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
                 return Ok(RayCounts::default());
             }
-            let (pixels, accumulators, counts) = render_tile(scene, accel, camera, integrator, tile, &ids)?;
+            let (pixels, accumulators, counts) = render_tile(scene, accel, camera, integrator, tile, &ids, &constant)?;
             {
                 let mut film = film.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
                 for (&(x, y), acc) in pixels.iter().zip(&accumulators) {
@@ -270,6 +272,7 @@ fn render_tile<A: Accel, I: Integrator>(
     integrator: &I,
     tile: &Region,
     ids: &ObjectIds,
+    constant: &ConstantBsdfs,
 ) -> Result<(Vec<(u32, u32)>, Vec<PixelAccumulator>, RayCounts), TraceError> {
     // The backend's float mode (flush-to-zero, which Embree asks of every thread that
     // traces); setting it here (two instructions) also makes shading arithmetic identical
@@ -301,8 +304,6 @@ fn render_tile<A: Accel, I: Integrator>(
     // Written in place every round (a 160-byte value returned per pixel cost a memcpy call).
     let mut samples = vec![CameraSample::default(); pixels.len()];
     let mut scratch = I::Scratch::default();
-    // The untextured materials' lobes for the denoising features (the integrators keep their own).
-    let constant = if features { ConstantBsdfs::new(scene) } else { ConstantBsdfs::empty() };
     // The pixels still sampling are the first `n` of `pixels`, `samplers` and `accumulators`.
     let mut n = pixels.len();
     for sample in 0..spp {
@@ -327,14 +328,7 @@ fn render_tile<A: Accel, I: Integrator>(
         }
         if features {
             for ((acc, ray), hit) in accumulators.iter_mut().zip(&rays).zip(hits.iter()) {
-                acc.add_features(features::denoising_features(
-                    scene,
-                    &constant,
-                    accel,
-                    ray,
-                    hit.as_ref(),
-                    &mut counts,
-                )?);
+                acc.add_features(features::denoising_features(scene, constant, accel, ray, hit.as_ref(), &mut counts)?);
             }
         }
         if let Some(rule) = adaptive.as_ref().filter(|rule| rule.tests_after(sample)) {
