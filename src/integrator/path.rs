@@ -265,16 +265,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             }
             s.start_bounce(depth);
             let u_light = s.next_2d();
-            // Two 1-D draws from one pair of dimensions: the values `next_1d` twice would give,
-            // the pair's seed and shuffled index computed once.
-            let Vec2 { x: u_select, y: u_roulette } = s.next_2d();
+            let u_roulette = s.next_1d();
             let u_bsdf = s.next_2d();
             let u_lobe = s.next_1d();
             let bsdf = &shading.bsdf;
 
             // Next-event estimation.
             if bsdf.flags().intersects(LobeFlags::DIFFUSE | LobeFlags::GLOSSY) {
-                if let Some((ls, choice)) = self.lights.sample(sp.p, sp.ns, u_select, u_light) {
+                if let Some((ls, choice)) = self.lights.sample(sp.p, sp.ns, u_light) {
                     let eval = bsdf.eval(wo, ls.wi);
                     let cos = ls.wi.dot(sp.ns).abs();
                     let f = eval.sum() * cos;

@@ -72,8 +72,8 @@ impl<'a> PathLights<'a> {
     /// See [`LightSet::sample`]; a point on an emissive mesh gets the radiance its material
     /// emits there ([`PathLights::mesh_radiance`]).
     #[inline]
-    pub fn sample(&self, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
-        let (mut sample, choice) = self.set.sample(p, n, u_select, u)?;
+    pub fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<(LightSample, f32)> {
+        let (mut sample, choice) = self.set.sample(p, n, u)?;
         if let Some(at) = sample.on_mesh {
             sample.radiance = self.mesh_radiance(at, sample.radiance);
         }

@@ -272,22 +272,33 @@ impl LightSet {
         }
     }
 
-    /// Chooses a light for the shading point `p` (normal `n`) with `u_select`, samples it
-    /// with `u`: the sample and the probability of having chosen that light. `None` when the
-    /// chosen light cannot reach `p` (behind a one-sided light, `p` on it).
-    pub fn sample(&self, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, f32)> {
-        let (k, choice) = match &self.selection {
-            Selection::Nothing => return None,
-            Selection::Power(d) => {
-                let (k, choice, _) = d.sample_discrete(u_select);
-                (k, choice)
-            }
-            Selection::Tree(t) => t.sample(p, n, u_select)?,
-        };
+    /// Chooses a light for the shading point `p` (normal `n`) with `u.x` and samples it with
+    /// what is left of `u.x` and `u.y`: the sample and the probability of having chosen that
+    /// light. `None` when the chosen light cannot reach `p` (behind a one-sided light, `p` on
+    /// it).
+    ///
+    /// One 2-D point does both, as in Cycles (`light_distribution_sample`: "rescale to reuse
+    /// random number"): the points of a pixel's samples that choose a light are those in its
+    /// strip of `u.x`, and stretched back to `[0, 1)²` they are still stratified, so each
+    /// light's samples are too. Chosen with a separate random number, a light gets a random
+    /// subset of the pixel's points, as good as independent ones (on the Cornell room, whose
+    /// light is two triangles, 4 × the variance of the direct diffuse light).
+    pub fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<(LightSample, f32)> {
+        let (k, choice, rest) = self.choose(p, n, u.x)?;
         if !(choice > 0.0) {
             return None;
         }
-        Some((self.sample_entry(k, p, u)?, choice))
+        Some((self.sample_entry(k, p, Vec2::new(rest, u.y))?, choice))
+    }
+
+    /// The light `u ∈ [0, 1)` chooses at `p` (normal `n`), the probability of that choice and
+    /// what is left of `u` (uniform in `[0, 1)` over the light's share).
+    fn choose(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
+        match &self.selection {
+            Selection::Nothing => None,
+            Selection::Power(d) => Some(d.sample_discrete(u)),
+            Selection::Tree(t) => t.sample(p, n, u),
+        }
     }
 
     /// A sample of light `k` from `p` for `u` (its density for this light alone).
@@ -536,8 +547,10 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                for (k, sel) in [0.25f32, 0.75].into_iter().enumerate() {
-                    let (s, choice) = lights.sample(Vec3::ZERO, Vec3::Y, sel, u).unwrap();
+                for k in 0..2 {
+                    // u.x within the light's share of [0, 1): the sphere's first.
+                    let ux = if k == 0 { sphere_choice * u.x } else { sphere_choice + (1.0 - sphere_choice) * u.x };
+                    let (s, choice) = lights.sample(Vec3::ZERO, Vec3::Y, Vec2::new(ux, u.y)).unwrap();
                     let want = if k == 0 { sphere_choice } else { 1.0 - sphere_choice };
                     assert!((choice - want).abs() < 1e-6, "{choice} vs {want}");
                     inv[k] += 1.0 / s.pdf as f64 / (n * n) as f64;
@@ -597,7 +610,7 @@ mod tests {
                 for i in 0..m {
                     for j in 0..m {
                         let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
-                        if let Some((s, choice)) = lights.sample(p, n, 0.5, u) {
+                        if let Some((s, choice)) = lights.sample(p, n, u) {
                             sum += (s.radiance.x * s.wi.dot(n).max(0.0) / (s.pdf * choice)) as f64;
                         }
                     }
@@ -611,7 +624,7 @@ mod tests {
         }
         // From above, the one-sided quad lights nothing, near or far.
         for p in [Vec3::new(0.4, 1.05, 0.1), Vec3::new(0.2, 4.0, 0.3)] {
-            assert!(quad_set.sample(p, -Vec3::Y, 0.5, Vec2::splat(0.3)).is_none());
+            assert!(quad_set.sample(p, -Vec3::Y, Vec2::splat(0.3)).is_none());
         }
     }
 
@@ -732,9 +745,39 @@ mod tests {
         assert!((point - env).abs() < 1e-5 * point, "choice per watt: point {point}, environment {env}");
     }
 
+    /// What is left of `u.x` after the choice spreads each light's share of `[0, 1)` evenly
+    /// over `[0, 1)` again, so that the stratified points of a pixel's samples that choose a
+    /// light stay stratified over it ([`LightSet::sample`]). Evenly spaced `u` give each
+    /// light evenly spaced rests, none farther than two spacings from the next or the ends.
+    #[test]
+    fn the_rest_of_the_choice_is_spread_over_the_lights_share() {
+        for sampler in [LightSampler::Power, LightSampler::Tree] {
+            let lights = every_kind(sampler);
+            let (p, n) = (Vec3::new(0.3, 0.5, -0.2), Vec3::Y);
+            let m = 1 << 16;
+            let mut rests = vec![Vec::new(); lights.len()];
+            for i in 0..m {
+                let (k, choice, rest) = lights.choose(p, n, (i as f32 + 0.5) / m as f32).unwrap();
+                assert_eq!(choice, lights.choice(k, p, n), "{sampler:?}");
+                assert!((0.0..1.0).contains(&rest), "{sampler:?}: rest {rest}");
+                rests[k].push(rest);
+            }
+            for (k, r) in rests.iter_mut().enumerate() {
+                if r.is_empty() {
+                    continue;
+                }
+                r.sort_by(f32::total_cmp);
+                let spacing = 1.0 / r.len() as f32;
+                let gaps = r.windows(2).map(|w| w[1] - w[0]).chain([r[0], 1.0 - r[r.len() - 1]]);
+                let widest = gaps.fold(0.0f32, f32::max);
+                assert!(widest <= 2.0 * spacing, "{sampler:?}, light {k}: gap {widest}, spacing {spacing}");
+            }
+        }
+    }
+
     #[test]
     fn the_choice_is_drawn_by_power() {
-        // The share of u_select choosing each light is its probability.
+        // The share of u choosing each light is its probability.
         let lights = every_kind(LightSampler::Power);
         let Selection::Power(selection) = &lights.selection else { unreachable!() };
         let n = 100_000;

@@ -327,13 +327,16 @@ impl LightTree {
         if total == 0 { 0.0 } else { n as f32 / total as f32 }
     }
 
-    /// A light chosen for the point `p` with shading normal `n` by `u ∈ [0, 1)`, and the
-    /// probability of that choice; `None` without lights.
-    pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32)> {
+    /// A light chosen for the point `p` with shading normal `n` by `u ∈ [0, 1)`, the
+    /// probability of that choice, and what is left of `u`: its place within the chosen
+    /// light's share of `[0, 1)`, again uniform in `[0, 1)` (`None` without lights).
+    pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
         let p_inf = self.p_infinite();
         if u < p_inf {
-            let k = ((u / p_inf * self.infinite.len() as f32) as usize).min(self.infinite.len() - 1);
-            return Some((self.infinite[k] as usize, p_inf / self.infinite.len() as f32));
+            let x = u / p_inf * self.infinite.len() as f32;
+            let k = (x as usize).min(self.infinite.len() - 1);
+            let rest = (x - k as f32).clamp(0.0, ONE_MINUS_EPSILON);
+            return Some((self.infinite[k] as usize, p_inf / self.infinite.len() as f32, rest));
         }
         if self.nodes.is_empty() {
             return None;
@@ -344,7 +347,7 @@ impl LightTree {
         loop {
             let node = &self.nodes[i];
             if node.leaf {
-                return Some((node.child_or_light as usize, pmf));
+                return Some((node.child_or_light as usize, pmf, u));
             }
             let right = node.child_or_light as usize;
             let (c0, c1) = self.child_weights(i, p, n);
@@ -592,7 +595,7 @@ mod tests {
             let mut counts = vec![0f64; lights.len()];
             for _ in 0..n {
                 let u: f32 = rng.random();
-                let (k, pmf) = tree.sample(p, nrm, u).expect("a light");
+                let (k, pmf, _) = tree.sample(p, nrm, u).expect("a light");
                 assert_eq!(pmf, tree.pmf(p, nrm, k), "light {k} at {p}");
                 counts[k] += 1.0;
             }
@@ -654,14 +657,14 @@ mod tests {
         let one = [LightExtent::Bounded(LightBounds::point(Vec3::ZERO, 2.0))];
         let tree = LightTree::new(&one);
         for u in [0.0, 0.5, ONE_MINUS_EPSILON] {
-            assert_eq!(tree.sample(Vec3::X, Vec3::Y, u), Some((0, 1.0)));
+            assert_eq!(tree.sample(Vec3::X, Vec3::Y, u), Some((0, 1.0, u)));
         }
         assert_eq!(tree.pmf(Vec3::X, Vec3::Y, 0), 1.0);
         // Two infinite lights and the tree: a third each.
         let tree = LightTree::new(&[one[0], LightExtent::Infinite(1.0), LightExtent::Infinite(9.0)]);
-        assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.1), Some((1, 1.0 / 3.0)));
-        assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.5), Some((2, 1.0 / 3.0)));
-        assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.9), Some((0, 1.0 - 2.0 / 3.0)));
+        assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.1).map(|(k, p, _)| (k, p)), Some((1, 1.0 / 3.0)));
+        assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.5).map(|(k, p, _)| (k, p)), Some((2, 1.0 / 3.0)));
+        assert_eq!(tree.sample(Vec3::X, Vec3::Y, 0.9).map(|(k, p, _)| (k, p)), Some((0, 1.0 - 2.0 / 3.0)));
         assert_eq!(LightTree::new(&[]).sample(Vec3::X, Vec3::Y, 0.5), None);
     }
 

@@ -55,8 +55,9 @@ pub const MAX_SAMPLES: u32 = 1 << 16;
 /// Dimensions of the camera sample: the pixel position (0, 1) and the lens point (2, 3).
 pub const CAMERA_DIMS: u32 = 4;
 
-/// Dimensions each bounce owns: the light point (2), the light choice, Russian roulette, the
-/// BSDF direction (2), the BSDF lobe, one spare.
+/// Dimensions each bounce owns: the light's choice and point (2, one pair:
+/// [`crate::light::set::LightSet::sample`]), Russian roulette, one spare, the BSDF direction
+/// (2), the BSDF lobe, one spare.
 pub const DIMS_PER_BOUNCE: u32 = 8;
 
 /// Why `spp` samples per pixel cannot be drawn from the sequence, if they cannot.
