@@ -15,7 +15,7 @@ would light the ceiling's lamp, `pathtracer` does not), lit by the point light b
 command line and in the TOML file, 8 bounces, the same camera. The two do not trace the same
 paths: `pathtracer` ends a path when its throughput falls below 0.01 (no Russian roulette; a
 bias) and traces about 1.75 times as many rays per sample as strahl, whose paths end by Russian
-roulette from the fourth vertex on; so samples per second alone do not compare them, the time
+roulette from the third vertex on; so samples per second alone do not compare them, the time
 to the same error does.
 
 Every run is a fresh process timed from outside (os.wait4's user + system CPU time). The line
