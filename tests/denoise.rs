@@ -128,17 +128,22 @@ fn rel_mse(v: &[f32], truth: &[f32]) -> f64 {
 ///
 /// | RMSE | noisy | denoised | ratio |
 /// |---|---|---|---|
-/// | whole frame | 0.0957 | 0.0512 | 1.87× |
-/// | away from the light (reference < 2 W/(m²·sr)) | 0.0920 | 0.0220 | 4.18× |
-/// | the same, the reference's own noise taken out | 0.0912 | 0.0183 | 4.98× |
-/// | relMSE, whole frame | 0.242 | 0.0062 | 39× |
+/// | whole frame | 0.0938 | 0.0516 | 1.82× |
+/// | away from the light (reference < 2 W/(m²·sr)) | 0.0898 | 0.0244 | 3.68× |
+/// | the same, the reference's own noise taken out | 0.0890 | 0.0211 | 4.21× |
+/// | relMSE, whole frame | 0.236 | 0.0072 | 33× |
+///
+/// These are one noise pattern's: with `--seed 1`, 2 and 3 the two ratios away from the light
+/// are 4.24, 3.95, 4.35 and 5.11, 4.59, 5.32 (seed 0's are the lowest of the four), and the
+/// denoised RMSE moves by ±8 % while the noisy one moves by ±1.5 %. The bounds below sit about
+/// 10 % under seed 0's figures; a denoiser that did nothing would give 1×.
 ///
 /// The whole frame's RMSE is the light's: its 498 pixels of up to 18.4 W/(m²·sr), noise-free
-/// as rendered, hold 421 of the denoised frame's 515 squared error (OIDN works in a
-/// perceptual space, where 2 % of 18.4 is little). The denoising features follow mirrors
-/// and glass ([`strahl::integrator::features`]); with the first hit's DiffCol and Normal
-/// instead (what strahl gave OIDN before, and a file without the features passes still gets)
-/// the whole frame only falls 1.46× (0.0656), away from the light 4.05×.
+/// as rendered, hold most of the denoised frame's squared error (OIDN works in a perceptual
+/// space, where 2 % of 18.4 is little). The denoising features follow mirrors and glass
+/// ([`strahl::integrator::features`]); with the first hit's DiffCol and Normal instead (what
+/// strahl gave OIDN before, and a file without the features passes still gets) the whole
+/// frame only falls 1.49× (0.0631).
 #[test]
 fn denoising_the_cornell_box_at_16_spp_cuts_the_rmse() {
     if !have_oidn() {
@@ -180,9 +185,9 @@ fn denoising_the_cornell_box_at_16_spp_cuts_the_rmse() {
     );
     assert!(before / after >= 1.7, "over the frame only {:.2}x less", before / after);
     assert!(first_hit_after / after >= 1.15, "the features beat DiffCol/Normal only {:.2}x", first_hit_after / after);
-    assert!(before_away / after_away >= 3.8, "away from the light only {:.2}x less", before_away / after_away);
+    assert!(before_away / after_away >= 3.3, "away from the light only {:.2}x less", before_away / after_away);
     assert!(
-        before_away_clean / after_away_clean >= 4.5,
+        before_away_clean / after_away_clean >= 3.8,
         "away from the light, without the reference's noise, only {:.2}x less",
         before_away_clean / after_away_clean
     );
