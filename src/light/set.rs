@@ -547,13 +547,13 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                for k in 0..2 {
-                    // u.x within the light's share of [0, 1): the sphere's first.
-                    let ux = if k == 0 { sphere_choice * u.x } else { sphere_choice + (1.0 - sphere_choice) * u.x };
+                // u.x within each light's share of [0, 1): the sphere's first.
+                let shares = [(0.0, sphere_choice), (sphere_choice, 1.0 - sphere_choice)];
+                for (sum, (start, want)) in inv.iter_mut().zip(shares) {
+                    let ux = start + want * u.x;
                     let (s, choice) = lights.sample(Vec3::ZERO, Vec3::Y, Vec2::new(ux, u.y)).unwrap();
-                    let want = if k == 0 { sphere_choice } else { 1.0 - sphere_choice };
                     assert!((choice - want).abs() < 1e-6, "{choice} vs {want}");
-                    inv[k] += 1.0 / s.pdf as f64 / (n * n) as f64;
+                    *sum += 1.0 / s.pdf as f64 / (n * n) as f64;
                 }
             }
         }
