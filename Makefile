@@ -183,13 +183,14 @@ test-gltf-blender: deps
 # with either backend), then the glTF import checks against Blender's exporter, the Blender
 # add-on rendering through strahl (tests/blender_engine.rs) and Khronos sample models against
 # Cycles (tests/khronos_models.rs). Installs
-# Debian's blender and the numpy its glTF exporter needs when missing (about 45 s, needs root).
+# Debian's blender, the numpy its glTF exporter needs and xvfb (F12 in Blender's window, about
+# 7 s) when missing (about 45 s, needs root).
 test-cycles: deps
-	@command -v blender >/dev/null && dpkg-query -W -f='$${Status}' python3-numpy 2>/dev/null | grep -q "install ok installed" || { \
+	@command -v blender >/dev/null && command -v xvfb-run >/dev/null && command -v xauth >/dev/null && dpkg-query -W -f='$${Status}' python3-numpy 2>/dev/null | grep -q "install ok installed" || { \
 	  sudo=""; [ "$$(id -u)" -eq 0 ] || sudo=sudo; \
-	  echo "installing: blender python3-numpy"; \
+	  echo "installing: blender python3-numpy xvfb xauth"; \
 	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
-	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends blender python3-numpy >/dev/null; }
+	  $$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends blender python3-numpy xvfb xauth >/dev/null; }
 	STRAHL_REQUIRE_BLENDER=1 $(CARGO) test --locked $(DENOISE_FEATURE) --test cycles --test gltf_external --test blender_engine --test khronos_models -- --nocapture
 
 # Instancing at scale: 1000 instances of a 327,680-triangle icosphere (327.7 M triangles as

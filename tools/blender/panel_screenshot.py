@@ -3,8 +3,12 @@
     xvfb-run -a -s "-screen 0 640x560x24" blender --factory-startup --addons strahl_engine \
         FILE.blend --python tools/blender/panel_screenshot.py -- OUT.png
 
-(with the add-on installed, see README "Rendering from Blender"). Once the window is drawn, the
-Properties editor shows the Render tab, fills the window and is saved as OUT.png; then Blender quits.
+(with the add-on installed, see README "Rendering from Blender"; or, without installing it,
+`BLENDER_USER_SCRIPTS=DIR` with the add-on in DIR/addons/strahl_engine, as tests/blender_engine.rs
+does). FILE.blend is any scene, e.g. the room tools/blender/room.py writes: on Blender's factory
+startup scene instead of a file, Blender 3.4 under Xvfb segfaulted before drawing. Once the
+window is drawn, the Properties editor shows the Render tab, fills the window and is saved as
+OUT.png; then Blender quits.
 """
 
 import sys
