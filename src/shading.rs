@@ -86,8 +86,8 @@ impl ConstantBsdfs {
                     Some(both(&|b| bsdf::gltf(b, &params, Vec3::Z)))
                 }
                 (None, &Texture::Constant(albedo)) => {
-                    // `SurfacePoint::albedo` at a hit without vertex colours: `ρ · 1`.
-                    let params = lecture_params(m, albedo * Vec3::ONE);
+                    // `SurfacePoint::albedo` at a hit without vertex colours: `ρ · 1 = ρ`.
+                    let params = lecture_params(m, albedo);
                     Some(both(&|b| bsdf::lecture(b, &params)))
                 }
                 _ => None,

@@ -229,8 +229,11 @@ pub fn trace_tiles<A: Accel, I: Integrator>(
     job: &TileJob,
 ) -> Result<(Film, RayCounts), RenderError> {
     let ids = ObjectIds::new(scene);
-    // The untextured materials' lobes for the denoising features (the path tracer keeps its own).
-    let constant = ConstantBsdfs::new(scene);
+    // The denoising features, when their passes are asked for, with the untextured materials'
+    // lobes they shade with (the path tracer keeps its own).
+    let passes = scene.output.passes;
+    let features = (passes.contains(Pass::DenoisingAlbedo) || passes.contains(Pass::DenoisingNormal))
+        .then(|| ConstantBsdfs::new(scene));
     let inside = film.region();
     if let Some(t) = job.tiles.iter().find(|t| t.intersection(&inside) != Some(**t)) {
         return Err(RenderError::InvalidScene(format!("tile {t} lies outside the film's region {inside}")));
@@ -244,7 +247,8 @@ pub fn trace_tiles<A: Accel, I: Integrator>(
             if job.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
                 return Ok(RayCounts::default());
             }
-            let (pixels, accumulators, counts) = render_tile(scene, accel, camera, integrator, tile, &ids, &constant)?;
+            let (pixels, accumulators, counts) =
+                render_tile(scene, accel, camera, integrator, tile, &ids, features.as_ref())?;
             {
                 let mut film = film.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
                 for (&(x, y), acc) in pixels.iter().zip(&accumulators) {
@@ -272,7 +276,7 @@ fn render_tile<A: Accel, I: Integrator>(
     integrator: &I,
     tile: &Region,
     ids: &ObjectIds,
-    constant: &ConstantBsdfs,
+    features: Option<&ConstantBsdfs>,
 ) -> Result<(Vec<(u32, u32)>, Vec<PixelAccumulator>, RayCounts), TraceError> {
     // The backend's float mode (flush-to-zero, which Embree asks of every thread that
     // traces); setting it here (two instructions) also makes shading arithmetic identical
@@ -282,7 +286,6 @@ fn render_tile<A: Accel, I: Integrator>(
     let passes = scene.output.passes;
     let crypto = passes.contains(Pass::CryptoObject) || passes.contains(Pass::CryptoMaterial);
     let compare = passes.contains(Pass::Disagreement);
-    let features = passes.contains(Pass::DenoisingAlbedo) || passes.contains(Pass::DenoisingNormal);
     let adaptive = scene.render.adaptive.as_ref().map(adaptive::Adaptive::new);
     // Adaptive sampling decides over the tile's whole grid cell (its neighbour dilation,
     // [`adaptive::dilate`]): a tile the region clips traces the rest of its cell as well, for
@@ -326,7 +329,7 @@ fn render_tile<A: Accel, I: Integrator>(
             let object = s.first.filter(|_| crypto).map(|f| ids.object_of(scene, &f.hit));
             acc.add(s.radiance, &s.split, s.first, object);
         }
-        if features {
+        if let Some(constant) = features {
             for ((acc, ray), hit) in accumulators.iter_mut().zip(&rays).zip(hits.iter()) {
                 acc.add_features(features::denoising_features(scene, constant, accel, ray, hit.as_ref(), &mut counts)?);
             }
