@@ -651,6 +651,9 @@ impl Bsdf {
         if lo.z <= 0.0 {
             return None;
         }
+        if let (false, [lobe]) = (self.tilted, self.lobes()) {
+            return self.sample_lone(lobe, wo, lo, u_lobe, u);
+        }
         let p = self.selection_at(lo);
         let mut k = 0;
         let mut before = 0.0;
@@ -685,6 +688,39 @@ impl Bsdf {
         } else {
             (self.eval_local::<false>(lo, li, transmitted).sum(), self.pdf_local::<false>(lo, li, transmitted, &p))
         };
+        let kind = LobeFlags(lobe.flags().0 & (LobeFlags::DIFFUSE.0 | LobeFlags::GLOSSY.0));
+        (pdf > 0.0).then_some(BsdfSample { wi, f, pdf, flags: kind | side, class, eta: s.eta })
+    }
+
+    /// [`Bsdf::sample`] of a BSDF of one lobe, not [`Lobe::Tilted`] (most BSDFs), from the
+    /// local `lo` (`lo.z > 0`): the same sample, bit for bit, without the mixture's machinery.
+    /// The lobe is chosen when it reflects anything, with probability 1, and nothing above it
+    /// scales it, so `u_lobe` goes to the lobe as it is, a specular sample is the lobe's own,
+    /// and `f` and the density at the world-space `wi` are the lobe's at its local coordinates.
+    #[inline]
+    fn sample_lone(&self, lobe: &Lobe, wo: Vec3, lo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if !(lobe.albedo(lo.z).element_sum() > 0.0) {
+            return None;
+        }
+        let s = lobe.sample(lo, u_lobe.clamp(0.0, 1.0 - f32::EPSILON / 2.0), u)?;
+        let wi = self.frame.to_world(s.wi).normalize_or_zero();
+        let transmitted = s.wi.z < 0.0;
+        let (o_ng, i_ng) = (wo.dot(self.ng), wi.dot(self.ng));
+        if wi == Vec3::ZERO || (o_ng * i_ng <= 0.0) != transmitted {
+            return None;
+        }
+        let side = if transmitted { LobeFlags::TRANSMISSION } else { LobeFlags::REFLECTION };
+        let class = lobe.class(transmitted);
+        if s.specular {
+            let flags = LobeFlags::SPECULAR | side;
+            return Some(BsdfSample { wi, f: s.f, pdf: s.pdf, flags, class, eta: s.eta });
+        }
+        // What `eval` and `pdf` give at the world-space `wi` ([`Bsdf::local_pair`]).
+        let li = self.frame.to_local(wi);
+        if li.z == 0.0 || (o_ng * i_ng <= 0.0) != (li.z < 0.0) {
+            return None;
+        }
+        let (f, pdf) = (lobe.eval(lo, li), lobe.pdf(lo, li));
         let kind = LobeFlags(lobe.flags().0 & (LobeFlags::DIFFUSE.0 | LobeFlags::GLOSSY.0));
         (pdf > 0.0).then_some(BsdfSample { wi, f, pdf, flags: kind | side, class, eta: s.eta })
     }

@@ -189,6 +189,53 @@ fn samples_agree_with_eval_and_pdf() {
     assert!(checked > 10_000, "{checked}");
 }
 
+/// `Bsdf::sample` of a lone lobe (its own short path) is bit for bit the sample of the same
+/// lobe beside a black Lambertian one (the mixture's path, which then chooses the lobe with
+/// probability `a / a = 1`): every lobe kind of the lecture and glTF materials, in shading
+/// frames tilted against the geometric normal (so that the checks of the pair's sides
+/// matter), from both faces, for random `wo` and sample numbers.
+#[test]
+fn a_lone_lobe_samples_as_the_mixture_does() {
+    let mut rng = Pcg64Mcg::seed_from_u64(11);
+    let mut lobes = vec![
+        Lobe::Lambert(lambert::Lambert { color: Vec3::new(0.8, 0.5, 0.2) }),
+        Lobe::BlinnPhong(blinn_phong::BlinnPhong { ks: Vec3::splat(0.7), exponent: 40.0 }),
+        Lobe::Mirror(specular::Mirror { kr: Vec3::splat(0.9) }),
+        Lobe::SmoothDielectric(specular::SmoothDielectric { kt: Vec3::ONE, eta_i: 1.0, eta_t: 1.5 }),
+    ];
+    for (_, p) in materials() {
+        let b = gltf_up(&p, true);
+        if let [lobe] = b.lobes() {
+            lobes.push(*lobe);
+        }
+    }
+    let kinds: std::collections::BTreeSet<_> =
+        lobes.iter().map(std::mem::discriminant).map(|d| format!("{d:?}")).collect();
+    assert!(kinds.len() >= 6, "only {} kinds of lone lobe: {kinds:?}", kinds.len());
+    let (mut compared, mut sampled) = (0, 0);
+    for lobe in &lobes {
+        for _ in 0..400 {
+            let ng = random_dir(&mut rng, 1.0);
+            let n = (ng + 0.4 * random_dir(&mut rng, 1.0)).normalize();
+            let front = rng.random::<bool>();
+            let lone = built(Frame::from_normal(n), ng, front, |b| {
+                b.push(*lobe);
+            });
+            let mixture = built(Frame::from_normal(n), ng, front, |b| {
+                b.push(*lobe);
+                b.push(Lobe::Lambert(lambert::Lambert { color: Vec3::ZERO }));
+            });
+            let wo = (ng + 0.9 * random_dir(&mut rng, 1.0)).normalize();
+            let (ul, u) = (rng.random(), Vec2::new(rng.random(), rng.random()));
+            let (a, b) = (lone.sample(wo, ul, u), mixture.sample(wo, ul, u));
+            assert_eq!(a, b, "{lobe:?}, wo {wo}, n {n}, ng {ng}");
+            compared += 1;
+            sampled += usize::from(a.is_some());
+        }
+    }
+    assert!(sampled > compared / 2, "{sampled} of {compared} samples");
+}
+
 #[test]
 fn reflection_is_reciprocal_and_transmission_obeys_eta_squared() {
     let mut rng = Pcg64Mcg::seed_from_u64(5);
