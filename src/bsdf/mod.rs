@@ -705,8 +705,7 @@ impl Bsdf {
         let s = lobe.sample(lo, u_lobe.clamp(0.0, 1.0 - f32::EPSILON / 2.0), u)?;
         let wi = self.frame.to_world(s.wi).normalize_or_zero();
         let transmitted = s.wi.z < 0.0;
-        let (o_ng, i_ng) = (wo.dot(self.ng), wi.dot(self.ng));
-        if wi == Vec3::ZERO || (o_ng * i_ng <= 0.0) != transmitted {
+        if wi == Vec3::ZERO || (wo.dot(self.ng) * wi.dot(self.ng) <= 0.0) != transmitted {
             return None;
         }
         let side = if transmitted { LobeFlags::TRANSMISSION } else { LobeFlags::REFLECTION };
@@ -715,11 +714,8 @@ impl Bsdf {
             let flags = LobeFlags::SPECULAR | side;
             return Some(BsdfSample { wi, f: s.f, pdf: s.pdf, flags, class, eta: s.eta });
         }
-        // What `eval` and `pdf` give at the world-space `wi` ([`Bsdf::local_pair`]).
-        let li = self.frame.to_local(wi);
-        if li.z == 0.0 || (o_ng * i_ng <= 0.0) != (li.z < 0.0) {
-            return None;
-        }
+        // What `eval` and `pdf` give at the world-space `wi`.
+        let (lo, li, _) = self.local_pair_from(lo, wo, wi)?;
         let (f, pdf) = (lobe.eval(lo, li), lobe.pdf(lo, li));
         let kind = LobeFlags(lobe.flags().0 & (LobeFlags::DIFFUSE.0 | LobeFlags::GLOSSY.0));
         (pdf > 0.0).then_some(BsdfSample { wi, f, pdf, flags: kind | side, class, eta: s.eta })
