@@ -13,7 +13,7 @@ STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
 PREFIX ?= $(if $(wildcard $(HOME)/.cargo/bin),$(HOME)/.cargo,/usr/local)
 
-.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm forest scale fuzz bench bench-cycles bench-mitsuba bench-pathtracer albedo-tables clean
+.PHONY: all deps test-deps oidn build install demo blender-addon test test-cycles test-embree4 test-gltf-blender test-mitsuba test-embree-pathtracer test-slurm test-install forest scale fuzz bench bench-cycles bench-mitsuba bench-pathtracer albedo-tables clean
 
 all: build
 
@@ -67,12 +67,15 @@ oidn:
 build: deps
 	$(CARGO) build --release --locked $(DENOISE_FEATURE)
 
-# The release binary, on PATH, so that the README's `strahl …` commands work as written.
-install: build
+# The release binary, on PATH, so that the README's `strahl …` commands work as written; with
+# OIDN, its libraries in a `lib` folder of their own, which is where they look for each other
+# (their run path is `$ORIGIN/../lib`; build.rs).
+# `make install STRAHL=path/to/strahl` installs that binary instead of building the release one.
+install: $(if $(filter command line,$(origin STRAHL)),deps,build)
 	install -d "$(PREFIX)/bin"
 	install -m 755 $(STRAHL) "$(PREFIX)/bin/strahl"
-	@if [ -f "$(OIDN_LIB)" ]; then install -d "$(PREFIX)/lib/strahl" && cp -P "$(OIDN_DIR)"/lib/lib*.so* "$(PREFIX)/lib/strahl/" && \
-	  echo "installed OIDN's libraries in $(PREFIX)/lib/strahl"; fi
+	@if [ -f "$(OIDN_LIB)" ]; then install -d "$(PREFIX)/lib/strahl/oidn/lib" && cp -P "$(OIDN_DIR)"/lib/lib*.so* "$(PREFIX)/lib/strahl/oidn/lib/" && \
+	  echo "installed OIDN's libraries in $(PREFIX)/lib/strahl/oidn/lib"; fi
 	@echo "installed $(PREFIX)/bin/strahl"
 
 demo: install
@@ -170,6 +173,23 @@ test-embree-pathtracer: deps
 # (CI passes the one `make test` has just built, which saves a 2-minute release build).
 test-slurm: $(if $(filter command line,$(origin STRAHL)),deps,build)
 	STRAHL=$(abspath $(STRAHL)) bash tools/test-slurm.sh
+
+# make install's layout, in a scratch PREFIX: the installed strahl renders, and where OIDN is
+# there it loads OIDN's libraries from where make install put them (not from the cache folder)
+# and denoises. `make test-install STRAHL=path/to/strahl` as for test-slurm.
+test-install: $(if $(filter command line,$(origin STRAHL)),deps,build)
+	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
+	$(MAKE) --no-print-directory install PREFIX="$$tmp" STRAHL="$(abspath $(STRAHL))" >/dev/null || exit 1; \
+	args="scenes/cornell.toml --width 16 --height 12 --spp 2 --integrator path"; \
+	if [ -f "$(OIDN_LIB)" ]; then \
+	  ldd "$$tmp/bin/strahl" | grep libOpenImageDenoise_core | grep -q "=> $$tmp/" || \
+	    { echo "test-install: the installed strahl does not load OIDN from $$tmp/lib/strahl/oidn/lib:" >&2; ldd "$$tmp/bin/strahl" >&2; exit 1; }; \
+	  "$$tmp/bin/strahl" render $$args --denoise -o "$$tmp/t.exr" >"$$tmp/log" 2>&1 || { cat "$$tmp/log" >&2; exit 1; }; \
+	  echo "test-install: passed (strahl and OIDN from PREFIX)"; \
+	else \
+	  "$$tmp/bin/strahl" render $$args -o "$$tmp/t.exr" >"$$tmp/log" 2>&1 || { cat "$$tmp/log" >&2; exit 1; }; \
+	  echo "test-install: passed; SKIPPED the denoiser: no OIDN in $(OIDN_DIR) (make oidn)"; \
+	fi
 
 # glTF files from tools strahl did not write: Blender's own exporter (needs `blender`; its
 # exporter needs numpy) and pygltflib (pip), compared with the same scenes built by hand

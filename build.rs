@@ -6,8 +6,11 @@
 //! `EMBREE_VERSION` (major version `3` or `4`, or a full `3.13.5`).
 //!
 //! With the `denoise` feature, the binaries also get the run paths of Intel Open Image
-//! Denoise's libraries (the `oidn` crate links them from `OIDN_DIR/lib`): `$ORIGIN/../lib/strahl`,
-//! where `make install` copies them, then `OIDN_DIR/lib`, where `make oidn` unpacked them.
+//! Denoise's libraries (the `oidn` crate links them from `OIDN_DIR/lib`):
+//! `$ORIGIN/../lib/strahl/oidn/lib`, where `make install` copies them, then `OIDN_DIR/lib`, where
+//! `make oidn` unpacked them. The libraries find each other (OIDN's core, its CPU device, TBB) by
+//! their own run path, `$ORIGIN/../lib`, and a binary's run path is not searched for its
+//! libraries' libraries: so wherever they go, they keep a folder named `lib` to themselves.
 
 use std::env;
 use std::fs;
@@ -170,6 +173,6 @@ fn oidn_run_paths() {
     if !lib.join("libOpenImageDenoise.so").is_file() {
         fail(&format!("OIDN_DIR={dir} holds no lib/libOpenImageDenoise.so: run `make oidn`"));
     }
-    println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN/../lib/strahl");
+    println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN/../lib/strahl/oidn/lib");
     println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib.display());
 }
