@@ -15,13 +15,13 @@ fn scene() -> String {
 #[test]
 fn sigterm_and_sigint_during_the_write_leave_no_temporary_file_and_the_old_output() {
     for (signal, code) in [("-TERM", 143), ("-INT", 130)] {
-        // A render that pauses 60 s after creating its temporary file, interrupted then.
+        // A render that pauses 60 s with its output written to its temporary, interrupted then.
         let dir = TempDir::new(&format!("signal{signal}"));
         let out = dir.write("out.exr", b"the previous output");
         let args = ["render", &scene(), "--width", "32", "--height", "24", "-o", out.to_str().unwrap()];
         let mut child = common::spawn_strahl(args, ("STRAHL_TEST_WRITE_DELAY_MS", "60000"));
         let start = Instant::now();
-        while !dir.entries().iter().any(|e| e.starts_with(".strahl-") && e.ends_with(".tmp")) {
+        while dir.written_temporaries().is_empty() {
             assert!(start.elapsed() < Duration::from_secs(120), "no temporary file appeared: {:?}", dir.entries());
             std::thread::sleep(Duration::from_millis(20));
         }

@@ -60,7 +60,7 @@ fn sigint_while_blocks_wait_in_a_scratch_file_leaves_no_scratch_file() {
     // The first 16-line block is complete after the first row of four tiles: the scratch file
     // appears then.
     let start = Instant::now();
-    while !dir.entries().iter().any(|e| e.starts_with(".strahl-") && e.ends_with(".tmp")) {
+    while dir.written_temporaries().is_empty() {
         assert!(start.elapsed() < Duration::from_secs(120), "no scratch file appeared: {:?}", dir.entries());
         std::thread::sleep(Duration::from_millis(10));
     }

@@ -21,7 +21,9 @@
 //! 255-byte limit for long ones), and names its writer, so that a stale one can be told from a
 //! live one. While it
 //! exists it is registered with [`crate::sys::signals`], which removes it if SIGINT or SIGTERM ends
-//! the process. `STRAHL_TEST_WRITE_DELAY_MS` (for tests) waits that long after creating it.
+//! the process. `STRAHL_TEST_WRITE_DELAY_MS` (for tests) waits that long once the bytes are in
+//! it, before its sync and rename: a temporary held so is never empty, which tells it from the
+//! empty one the start-up check that an output's folder takes a file creates and removes.
 
 use std::fs::{self, OpenOptions};
 use std::io::{self, Write};
@@ -97,13 +99,13 @@ pub fn stage_with(
 ) -> Result<Staged, WriteError> {
     let (file, tmp) = create_temporary(path)?;
     let staged = Staged { tmp, path: path.to_path_buf(), done: false };
-    if let Some(ms) = std::env::var("STRAHL_TEST_WRITE_DELAY_MS").ok().and_then(|v| v.parse().ok()) {
-        std::thread::sleep(std::time::Duration::from_millis(ms));
-    }
     let result = (|| -> io::Result<()> {
         let mut buffered = io::BufWriter::with_capacity(1 << 20, file);
         write(&mut buffered)?;
         let file = buffered.into_inner().map_err(|e| e.into_error())?;
+        if let Some(ms) = std::env::var("STRAHL_TEST_WRITE_DELAY_MS").ok().and_then(|v| v.parse().ok()) {
+            std::thread::sleep(std::time::Duration::from_millis(ms));
+        }
         file.sync_all()
     })();
     // On error `staged` is dropped, removing the temporary.

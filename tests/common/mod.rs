@@ -294,6 +294,16 @@ impl TempDir {
         v.sort();
         v
     }
+
+    /// strahl's temporaries in the directory (`.strahl-….tmp`, sorted) that hold bytes: an
+    /// output, a checkpoint or a scratch file being written. The empty one that the start-up
+    /// check of an output's folder creates and removes at once is not among them, so a test
+    /// that waits for a write is not fooled by it.
+    pub fn written_temporaries(&self) -> Vec<String> {
+        let temporary = |e: &String| e.starts_with(".strahl-") && e.ends_with(".tmp");
+        let written = |e: &String| std::fs::metadata(self.path(e)).is_ok_and(|m| m.len() > 0);
+        self.entries().into_iter().filter(|e| temporary(e) && written(e)).collect()
+    }
 }
 
 impl Drop for TempDir {
