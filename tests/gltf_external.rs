@@ -21,16 +21,6 @@ fn blender_export(dir: &Path) -> Option<PathBuf> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_export.py");
     let mut cmd = Command::new("blender");
     cmd.args(["-b", "--factory-startup", "--python"]).arg(&script).arg("--").arg(dir);
-    // Blender's glTF exporter needs numpy; Debian's Blender runs the system Python, which may
-    // not have it where another Python 3.11 does.
-    if let Ok(out) = Command::new("python3")
-        .args(["-c", "import numpy, os; print(os.path.dirname(os.path.dirname(numpy.__file__)))"])
-        .output()
-    {
-        if out.status.success() {
-            cmd.env("PYTHONPATH", String::from_utf8_lossy(&out.stdout).trim());
-        }
-    }
     let out = cmd.output().expect("blender runs");
     let glb = dir.join("blender.glb");
     assert!(glb.is_file(), "Blender did not export: {}", String::from_utf8_lossy(&out.stdout));

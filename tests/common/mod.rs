@@ -188,19 +188,25 @@ pub fn skip(why: &str) {
     }
 }
 
-/// Whether Blender is installed; if not, says so in a skip line ending in `then` (what goes
-/// untested), or fails when `STRAHL_REQUIRE_BLENDER=1` (`make test-cycles` sets it).
+/// Whether Blender is installed with the numpy its glTF importer and exporter need; if not,
+/// says so in a skip line ending in `then` (what goes untested), or fails when
+/// `STRAHL_REQUIRE_BLENDER=1` (`make test-cycles` sets it). Asked of Blender once per test
+/// binary.
 pub fn blender_installed(then: &str) -> bool {
-    if Command::new("blender").arg("--version").output().is_ok() {
-        return true;
-    }
-    assert!(
-        std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"),
-        "STRAHL_REQUIRE_BLENDER=1 but blender is not installed"
-    );
-    skip(&format!(
-        "blender is not installed (apt-get install blender python3-numpy; make test-cycles installs it): {then}"
-    ));
+    static MISSING: std::sync::OnceLock<Option<&str>> = std::sync::OnceLock::new();
+    let missing = *MISSING.get_or_init(|| {
+        if Command::new("blender").arg("--version").output().is_err() {
+            return Some("blender is not installed");
+        }
+        let numpy = ["-b", "--factory-startup", "--python-exit-code", "1", "--python-expr", "import numpy"];
+        if !Command::new("blender").args(numpy).output().is_ok_and(|o| o.status.success()) {
+            return Some("Blender's Python cannot import numpy, which its glTF importer and exporter need");
+        }
+        None
+    });
+    let Some(missing) = missing else { return true };
+    assert!(std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"), "STRAHL_REQUIRE_BLENDER=1 but {missing}");
+    skip(&format!("{missing} (apt-get install blender python3-numpy; make test-cycles installs them): {then}"));
     false
 }
 
