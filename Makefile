@@ -76,6 +76,9 @@ install: $(if $(filter command line,$(origin STRAHL)),deps,build)
 	install -m 755 $(STRAHL) "$(PREFIX)/bin/strahl"
 	@if [ -f "$(OIDN_LIB)" ]; then install -d "$(PREFIX)/lib/strahl/oidn/lib" && cp -P "$(OIDN_DIR)"/lib/lib*.so* "$(PREFIX)/lib/strahl/oidn/lib/" && \
 	  echo "installed OIDN's libraries in $(PREFIX)/lib/strahl/oidn/lib"; fi
+	@# Copies that make install put in PREFIX/lib/strahl itself before the oidn/lib folder (strahl no longer looks there).
+	@if [ -d "$(PREFIX)/lib/strahl" ]; then find "$(PREFIX)/lib/strahl" -maxdepth 1 ! -type d \
+	  \( -name 'libOpenImageDenoise*.so*' -o -name 'libtbb*.so*' \) -print -delete | sed 's/^/removed an earlier install'"'"'s /'; fi
 	@echo "installed $(PREFIX)/bin/strahl"
 
 demo: install
@@ -176,10 +179,14 @@ test-slurm: $(if $(filter command line,$(origin STRAHL)),deps,build)
 
 # make install's layout, in a scratch PREFIX: the installed strahl renders, and where OIDN is
 # there it loads OIDN's libraries from where make install put them (not from the cache folder)
-# and denoises. `make test-install STRAHL=path/to/strahl` as for test-slurm.
+# and denoises; OIDN copies of the older layout (in lib/strahl itself) are removed, nothing
+# else. `make test-install STRAHL=path/to/strahl` as for test-slurm.
 test-install: $(if $(filter command line,$(origin STRAHL)),deps,build)
 	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
+	mkdir -p "$$tmp/lib/strahl" && touch "$$tmp/lib/strahl/libOpenImageDenoise.so.2" "$$tmp/lib/strahl/keep"; \
 	$(MAKE) --no-print-directory install PREFIX="$$tmp" STRAHL="$(abspath $(STRAHL))" >/dev/null || exit 1; \
+	[ ! -e "$$tmp/lib/strahl/libOpenImageDenoise.so.2" ] && [ -e "$$tmp/lib/strahl/keep" ] || \
+	  { echo "test-install: make install did not remove exactly the old layout's OIDN copy from $$tmp/lib/strahl" >&2; exit 1; }; \
 	args="scenes/cornell.toml --width 16 --height 12 --spp 2 --integrator path"; \
 	if [ -f "$(OIDN_LIB)" ]; then \
 	  ldd "$$tmp/bin/strahl" | grep libOpenImageDenoise_core | grep -q "=> $$tmp/" || \
