@@ -33,12 +33,12 @@ MIRROR=${MIRROR:-http://deb.debian.org/debian}
 # Packages of the root; the stamp names them so that a change rebuilds the root.
 PACKAGES="libembree-dev libclang1-19 libclang-common-19-dev gcc libc6-dev ca-certificates python3"
 # The readers the tests check strahl's files with (exrheader, oiiotool, Python's OpenEXR, mmh3,
-# numpy, pygltflib, trimesh), as `make test-deps` installs them on the host: installed when the
-# root is made, each step allowed to fail (a test whose reader is missing skips, and the summary
-# line below counts and names every skip).
-READERS="openexr openimageio-tools python3-numpy python3-pip"
+# numpy, pygltflib, trimesh) and /usr/bin/time (peak memory), as `make test-deps` installs them
+# on the host: installed when the root is made, each step allowed to fail (a test whose reader
+# is missing skips, and the summary line below counts and names every skip).
+READERS="openexr openimageio-tools python3-numpy python3-pip time"
 PIP_READERS="OpenEXR mmh3 pygltflib trimesh"
-STAMP="strahl-root-v2: $PACKAGES; $READERS; $PIP_READERS"
+STAMP="strahl-root-v3: $PACKAGES; $READERS; $PIP_READERS"
 
 say() { echo "test-embree4: $*" >&2; }
 
@@ -151,9 +151,24 @@ create_root() {
   " || { ROOT=$real_root; return 1; }
   chroot "$ROOT" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin DEBIAN_FRONTEND=noninteractive bash -c "
     apt-get install -y -qq --no-install-recommends $READERS >/dev/null || echo 'test-embree4: could not install $READERS'
-    python3 -m pip install -q --disable-pip-version-check --break-system-packages $PIP_READERS >/dev/null ||
-      echo 'test-embree4: could not pip-install $PIP_READERS'
   " >&2
+  # The Python readers' wheels are fetched by the host's pip, for the root's Python, as the
+  # crates are (a machine whose HTTPS goes through a proxy trusts the proxy's certificate on
+  # the host, not in a fresh root); pip inside the root installs them without the network.
+  local py wheels=$ROOT/tmp/strahl-wheels
+  local pip=(chroot "$ROOT" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin python3 -m pip install -q
+    --disable-pip-version-check --root-user-action=ignore --no-warn-script-location --break-system-packages)
+  py=$(chroot "$ROOT" python3 -c 'import sys; print("%d%d" % sys.version_info[:2])')
+  if python3 -m pip download -q --disable-pip-version-check --dest "$wheels" --only-binary=:all: \
+    --python-version "$py" --implementation cp --abi "cp$py" --platform manylinux_2_28_x86_64 \
+    --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 --platform any $PIP_READERS >/dev/null; then
+    "${pip[@]}" --no-index --find-links /tmp/strahl-wheels $PIP_READERS >/dev/null ||
+      say "could not pip-install $PIP_READERS from the host's wheels"
+  else
+    say "the host's pip could not fetch $PIP_READERS for the root's Python $py; trying pip in the root"
+    "${pip[@]}" $PIP_READERS >/dev/null || say "could not pip-install $PIP_READERS"
+  fi
+  rm -rf -- "$wheels"
   local partial=$ROOT
   ROOT=$real_root
   unmount_tracked
