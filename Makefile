@@ -8,6 +8,9 @@ CARGO ?= cargo
 PACKAGES := libembree-dev libclang-dev gcc libc6-dev
 SCENES := $(wildcard scenes/*.toml)
 STRAHL := $(or $(CARGO_TARGET_DIR),target)/release/strahl
+# What a target that runs $(STRAHL) needs first: the release build, or only the system packages
+# when `STRAHL=path/to/strahl` is given on the command line (install, test-slurm, test-install).
+STRAHL_BUILT := $(if $(filter command line,$(origin STRAHL)),deps,build)
 
 # Where `make install` puts bin/strahl: cargo's own bin directory when there is one (rustup puts
 # it on PATH), else /usr/local. `make install PREFIX=/opt/strahl` for a farm's shared path.
@@ -71,7 +74,7 @@ build: deps
 # OIDN, its libraries in a `lib` folder of their own, which is where they look for each other
 # (their run path is `$ORIGIN/../lib`; build.rs).
 # `make install STRAHL=path/to/strahl` installs that binary instead of building the release one.
-install: $(if $(filter command line,$(origin STRAHL)),deps,build)
+install: $(STRAHL_BUILT)
 	install -d "$(PREFIX)/bin"
 	install -m 755 $(STRAHL) "$(PREFIX)/bin/strahl"
 	@if [ -f "$(OIDN_LIB)" ]; then install -d "$(PREFIX)/lib/strahl/oidn/lib" && cp -P "$(OIDN_DIR)"/lib/lib*.so* "$(PREFIX)/lib/strahl/oidn/lib/" && \
@@ -174,29 +177,28 @@ test-embree-pathtracer: deps
 # needs root): an 8-tile `strahl farm slurm` render merged equals a single-process render.
 # `make test-slurm STRAHL=path/to/strahl` runs that binary instead of building the release one
 # (CI passes the one `make test` has just built, which saves a 2-minute release build).
-test-slurm: $(if $(filter command line,$(origin STRAHL)),deps,build)
+test-slurm: $(STRAHL_BUILT)
 	STRAHL=$(abspath $(STRAHL)) bash tools/test-slurm.sh
 
 # make install's layout, in a scratch PREFIX: the installed strahl renders, and where OIDN is
 # there it loads OIDN's libraries from where make install put them (not from the cache folder)
 # and denoises; OIDN copies of the older layout (in lib/strahl itself) are removed, nothing
 # else. `make test-install STRAHL=path/to/strahl` as for test-slurm.
-test-install: $(if $(filter command line,$(origin STRAHL)),deps,build)
+test-install: $(STRAHL_BUILT)
 	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
 	mkdir -p "$$tmp/lib/strahl" && touch "$$tmp/lib/strahl/libOpenImageDenoise.so.2" "$$tmp/lib/strahl/keep"; \
 	$(MAKE) --no-print-directory install PREFIX="$$tmp" STRAHL="$(abspath $(STRAHL))" >/dev/null || exit 1; \
 	[ ! -e "$$tmp/lib/strahl/libOpenImageDenoise.so.2" ] && [ -e "$$tmp/lib/strahl/keep" ] || \
 	  { echo "test-install: make install did not remove exactly the old layout's OIDN copy from $$tmp/lib/strahl" >&2; exit 1; }; \
 	args="scenes/cornell.toml --width 16 --height 12 --spp 2 --integrator path"; \
+	passed="passed; SKIPPED the denoiser: no OIDN in $(OIDN_DIR) (make oidn)"; \
 	if [ -f "$(OIDN_LIB)" ]; then \
 	  ldd "$$tmp/bin/strahl" | grep libOpenImageDenoise_core | grep -q "=> $$tmp/" || \
 	    { echo "test-install: the installed strahl does not load OIDN from $$tmp/lib/strahl/oidn/lib:" >&2; ldd "$$tmp/bin/strahl" >&2; exit 1; }; \
-	  "$$tmp/bin/strahl" render $$args --denoise -o "$$tmp/t.exr" >"$$tmp/log" 2>&1 || { cat "$$tmp/log" >&2; exit 1; }; \
-	  echo "test-install: passed (strahl and OIDN from PREFIX)"; \
-	else \
-	  "$$tmp/bin/strahl" render $$args -o "$$tmp/t.exr" >"$$tmp/log" 2>&1 || { cat "$$tmp/log" >&2; exit 1; }; \
-	  echo "test-install: passed; SKIPPED the denoiser: no OIDN in $(OIDN_DIR) (make oidn)"; \
-	fi
+	  args="$$args --denoise"; passed="passed (strahl and OIDN from PREFIX)"; \
+	fi; \
+	"$$tmp/bin/strahl" render $$args -o "$$tmp/t.exr" >"$$tmp/log" 2>&1 || { cat "$$tmp/log" >&2; exit 1; }; \
+	echo "test-install: $$passed"
 
 # glTF files from tools strahl did not write: Blender's own exporter (needs `blender`; its
 # exporter needs numpy) and pygltflib (pip), compared with the same scenes built by hand

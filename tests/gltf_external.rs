@@ -18,12 +18,8 @@ fn blender_export(dir: &Path) -> Option<PathBuf> {
     if !common::blender_installed("Blender's exported files are not read") {
         return None;
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gltf/blender_export.py");
-    let mut cmd = Command::new("blender");
-    cmd.args(["-b", "--factory-startup", "--python"]).arg(&script).arg("--").arg(dir);
-    let out = cmd.output().expect("blender runs");
     let glb = dir.join("blender.glb");
-    assert!(glb.is_file(), "Blender did not export: {}", String::from_utf8_lossy(&out.stdout));
+    common::run_blender_script("tools/gltf/blender_export.py", &[dir.into()], &[&glb]);
     Some(glb)
 }
 

@@ -298,11 +298,6 @@ fn temporaries_of_killed_saves_are_removed_by_the_next_run() {
     let want = uninterrupted(&dir);
     std::fs::remove_file(dir.path("full.exr")).unwrap();
     let out = dir.path("o.exr");
-    let temporaries = || -> Vec<String> {
-        dir.entries().into_iter().filter(|e| e.starts_with(".strahl-") && e.ends_with(".tmp")).collect()
-    };
-    // The checkpoint's temporary, held with its bytes in it; not the empty one of the start-up
-    // check that the folder takes a file, which comes before the stale ones are removed.
     for kill in 1..=2 {
         let mut a = args(&out, &["--threads", "1", "--checkpoint-every", "0"]);
         if kill == 2 {
@@ -311,6 +306,9 @@ fn temporaries_of_killed_saves_are_removed_by_the_next_run() {
         let mut child = common::spawn_strahl(&a, ("STRAHL_TEST_WRITE_DELAY_MS", "60000"));
         let mine = format!("-{}-", child.id());
         let start = Instant::now();
+        // The checkpoint's temporary, held with its bytes in it; not the empty one of the
+        // start-up check that the folder takes a file, which comes before the stale ones are
+        // removed.
         while !dir.written_temporaries().iter().any(|t| t.contains(&mine)) {
             assert!(start.elapsed() < Duration::from_secs(60), "no checkpoint save under way: {:?}", dir.entries());
             assert!(child.try_wait().unwrap().is_none(), "strahl ended: {:?}", dir.entries());
@@ -319,7 +317,7 @@ fn temporaries_of_killed_saves_are_removed_by_the_next_run() {
         child.kill().unwrap();
         child.wait().unwrap();
         // This run's; the first run's was removed by the second.
-        let left = temporaries();
+        let left = dir.temporaries();
         assert!(left.len() == 1 && left[0].contains(&mine), "{left:?}");
         assert!(!checkpoint_of(&out).exists(), "the save was not killed");
     }

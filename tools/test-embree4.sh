@@ -161,7 +161,8 @@ create_root() {
   py=$(chroot "$ROOT" python3 -c 'import sys; print("%d%d" % sys.version_info[:2])')
   if python3 -m pip download -q --disable-pip-version-check --dest "$wheels" --only-binary=:all: \
     --python-version "$py" --implementation cp --abi "cp$py" --platform manylinux_2_28_x86_64 \
-    --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 --platform any $PIP_READERS >/dev/null; then
+    --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 --platform any \
+    $PIP_READERS >/dev/null; then
     "${pip[@]}" --no-index --find-links /tmp/strahl-wheels $PIP_READERS >/dev/null ||
       say "could not pip-install $PIP_READERS from the host's wheels"
   else

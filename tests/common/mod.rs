@@ -195,14 +195,14 @@ pub fn skip(why: &str) {
 pub fn blender_installed(then: &str) -> bool {
     static MISSING: std::sync::OnceLock<Option<&str>> = std::sync::OnceLock::new();
     let missing = *MISSING.get_or_init(|| {
-        if Command::new("blender").arg("--version").output().is_err() {
-            return Some("blender is not installed");
-        }
         let numpy = ["-b", "--factory-startup", "--python-exit-code", "1", "--python-expr", "import numpy"];
-        if !Command::new("blender").args(numpy).output().is_ok_and(|o| o.status.success()) {
-            return Some("Blender's Python cannot import numpy, which its glTF importer and exporter need");
+        match Command::new("blender").args(numpy).output() {
+            Err(_) => Some("blender is not installed"),
+            Ok(o) if !o.status.success() => {
+                Some("Blender's Python cannot import numpy, which its glTF importer and exporter need")
+            }
+            Ok(_) => None,
         }
-        None
     });
     let Some(missing) = missing else { return true };
     assert!(std::env::var("STRAHL_REQUIRE_BLENDER").as_deref() != Ok("1"), "STRAHL_REQUIRE_BLENDER=1 but {missing}");
@@ -230,7 +230,7 @@ pub fn cycles_render_gltf(
 }
 
 /// Runs the repository's Blender script `script` (a path below the crate's root) headless,
-/// `args` after `--`, and asserts that Blender succeeded and that each of `outputs` exists
+/// `args` after `--`, and asserts that Blender succeeded and that each of `outputs` is a file
 /// (Blender's output in the message otherwise). Call after [`blender_installed`].
 pub fn run_blender_script(script: &str, args: &[std::ffi::OsString], outputs: &[&Path]) {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join(script);
@@ -242,7 +242,7 @@ pub fn run_blender_script(script: &str, args: &[std::ffi::OsString], outputs: &[
         .output()
         .expect("blender runs");
     assert!(
-        out.status.success() && outputs.iter().all(|p| p.exists()),
+        out.status.success() && outputs.iter().all(|p| p.is_file()),
         "blender failed:\n{}\n{}",
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
@@ -301,14 +301,16 @@ impl TempDir {
         v
     }
 
-    /// strahl's temporaries in the directory (`.strahl-….tmp`, sorted) that hold bytes: an
-    /// output, a checkpoint or a scratch file being written. The empty one that the start-up
-    /// check of an output's folder creates and removes at once is not among them, so a test
-    /// that waits for a write is not fooled by it.
+    /// strahl's temporaries in the directory (`.strahl-….tmp`), sorted.
+    pub fn temporaries(&self) -> Vec<String> {
+        self.entries().into_iter().filter(|e| e.starts_with(".strahl-") && e.ends_with(".tmp")).collect()
+    }
+
+    /// [`TempDir::temporaries`] that hold bytes: an output, a checkpoint or a scratch file
+    /// being written. The empty one that the start-up check of an output's folder creates and
+    /// removes at once is not among them, so a test that waits for a write is not fooled by it.
     pub fn written_temporaries(&self) -> Vec<String> {
-        let temporary = |e: &String| e.starts_with(".strahl-") && e.ends_with(".tmp");
-        let written = |e: &String| std::fs::metadata(self.path(e)).is_ok_and(|m| m.len() > 0);
-        self.entries().into_iter().filter(|e| temporary(e) && written(e)).collect()
+        self.temporaries().into_iter().filter(|e| std::fs::metadata(self.path(e)).is_ok_and(|m| m.len() > 0)).collect()
     }
 }
 
